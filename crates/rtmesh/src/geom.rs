@@ -1,0 +1,212 @@
+//! Small geometric types shared by every module: axis-aligned boxes and rays.
+//!
+//! Vectors are glam's `Vec3` (f32); these types add what ray tracing needs on top.
+
+use glam::Vec3;
+use serde::Serialize;
+
+/// Axis-aligned bounding box. The empty box has `min = +inf`, `max = -inf`, so that
+/// growing it by any point gives that point's box.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Aabb {
+    /// Smallest corner.
+    pub min: Vec3,
+    /// Largest corner.
+    pub max: Vec3,
+}
+
+impl Default for Aabb {
+    fn default() -> Self {
+        Self::EMPTY
+    }
+}
+
+impl Aabb {
+    /// The empty box: the identity of [`Aabb::union`].
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    /// Box of one point.
+    pub fn from_point(p: Vec3) -> Self {
+        Self { min: p, max: p }
+    }
+
+    /// Box of a set of points.
+    pub fn from_points<'a>(points: impl IntoIterator<Item = &'a Vec3>) -> Self {
+        points
+            .into_iter()
+            .fold(Self::EMPTY, |b, &p| b.grown_by_point(p))
+    }
+
+    /// This box grown to contain `p`.
+    #[inline]
+    pub fn grown_by_point(self, p: Vec3) -> Self {
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    /// Smallest box containing both.
+    #[inline]
+    pub fn union(self, other: Aabb) -> Self {
+        Self {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    /// Intersection of both boxes (empty when they do not overlap).
+    #[inline]
+    pub fn intersection(self, other: Aabb) -> Self {
+        Self {
+            min: self.min.max(other.min),
+            max: self.max.min(other.max),
+        }
+    }
+
+    /// True when no point lies inside.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
+    }
+
+    /// Edge lengths (zero for the empty box).
+    #[inline]
+    pub fn extent(&self) -> Vec3 {
+        (self.max - self.min).max(Vec3::ZERO)
+    }
+
+    /// Centre point.
+    #[inline]
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    /// Surface area: `2 (xy + yz + zx)`; zero for the empty box.
+    #[inline]
+    pub fn surface_area(&self) -> f32 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let d = self.extent();
+        2.0 * (d.x * d.y + d.y * d.z + d.z * d.x)
+    }
+
+    /// Half the surface area: the quantity the SAH needs (the factor 2 cancels).
+    #[inline]
+    pub fn half_area(&self) -> f32 {
+        if self.is_empty() {
+            return 0.0;
+        }
+        let d = self.extent();
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    /// Volume; zero for the empty box.
+    pub fn volume(&self) -> f32 {
+        let d = self.extent();
+        d.x * d.y * d.z
+    }
+
+    /// Length of the diagonal.
+    pub fn diagonal_length(&self) -> f32 {
+        self.extent().length()
+    }
+
+    /// The box of the eight corners of this box under `transform`.
+    pub fn transformed(&self, transform: &glam::Affine3A) -> Aabb {
+        if self.is_empty() {
+            return *self;
+        }
+        (0..8).fold(Aabb::EMPTY, |b, corner| {
+            let p = Vec3::new(
+                if corner & 1 == 0 {
+                    self.min.x
+                } else {
+                    self.max.x
+                },
+                if corner & 2 == 0 {
+                    self.min.y
+                } else {
+                    self.max.y
+                },
+                if corner & 4 == 0 {
+                    self.min.z
+                } else {
+                    self.max.z
+                },
+            );
+            b.grown_by_point(transform.transform_point3(p))
+        })
+    }
+}
+
+/// A ray `origin + t * direction` for `t` in `[t_min, t_max]`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Start point.
+    pub origin: Vec3,
+    /// Direction (not necessarily unit length).
+    pub direction: Vec3,
+    /// Smallest accepted distance.
+    pub t_min: f32,
+    /// Largest accepted distance.
+    pub t_max: f32,
+}
+
+impl Ray {
+    /// A ray over `[0, inf)`.
+    pub fn new(origin: Vec3, direction: Vec3) -> Self {
+        Self {
+            origin,
+            direction,
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    /// Point at distance `t`.
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + self.direction * t
+    }
+}
+
+/// Area of the triangle `(a, b, c)`.
+#[inline]
+pub fn triangle_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
+    0.5 * (b - a).cross(c - a).length()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn empty_box_is_union_identity() {
+        let b = Aabb::from_point(Vec3::new(1.0, 2.0, 3.0));
+        assert_eq!(Aabb::EMPTY.union(b), b);
+        assert!(Aabb::EMPTY.is_empty());
+        assert_eq!(Aabb::EMPTY.surface_area(), 0.0);
+    }
+
+    #[test]
+    fn unit_cube_area_and_volume() {
+        let b = Aabb::from_points(&[Vec3::ZERO, Vec3::ONE]);
+        assert_eq!(b.surface_area(), 6.0);
+        assert_eq!(b.half_area(), 3.0);
+        assert_eq!(b.volume(), 1.0);
+        assert_eq!(b.center(), Vec3::splat(0.5));
+    }
+
+    #[test]
+    fn rotated_box_grows() {
+        let b = Aabb::from_points(&[Vec3::ZERO, Vec3::ONE]);
+        let r = glam::Affine3A::from_rotation_z(std::f32::consts::FRAC_PI_4);
+        let t = b.transformed(&r);
+        assert!((t.extent().x - 2f32.sqrt()).abs() < 1e-5);
+        assert!((t.extent().z - 1.0).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,340 @@
+//! glTF 2.0 and GLB through the gltf crate. Each glTF mesh becomes one geometry (its
+//! primitives in order, materials per triangle); each node that holds a mesh becomes an
+//! instance with its world transform; `alphaMode` MASK or BLEND marks a material
+//! alpha-tested. Triangle strips and fans are turned into triangles; point and line
+//! primitives are not triangles and are skipped. Every accessor is bounds-checked
+//! against its buffer before it is read, so a lying file is an error, not a panic.
+
+use super::{CountingReader, MeshError};
+use crate::mesh::{Instance, Material, Scene, TriMesh};
+use glam::{Affine3A, Mat4, Vec3};
+use gltf::mesh::Mode;
+use serde_json::json;
+use std::borrow::Cow;
+use std::io::{BufRead, Read};
+use std::path::Path;
+
+/// Deepest node hierarchy followed (guards against cycles in malformed files).
+const MAX_NODE_DEPTH: usize = 256;
+
+pub(super) fn read<R: BufRead>(
+    path: &Path,
+    mut reader: CountingReader<'_, R>,
+) -> Result<Scene, MeshError> {
+    let mut bytes = Vec::new();
+    reader
+        .read_to_end(&mut bytes)
+        .map_err(|e| MeshError::io(path, e))?;
+    if bytes.starts_with(b"glTF") {
+        // The gltf crate subtracts the header size from the declared length unchecked.
+        let declared = bytes
+            .get(8..12)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize);
+        if !declared.is_some_and(|n| (12..=bytes.len()).contains(&n)) {
+            return Err(MeshError::invalid(
+                path,
+                format!(
+                    "GLB header declares length {declared:?} but the file has {} bytes",
+                    bytes.len()
+                ),
+            ));
+        }
+    }
+    let gltf::Gltf { document, blob } =
+        gltf::Gltf::from_slice(&bytes).map_err(|e| MeshError::invalid(path, e.to_string()))?;
+    let base = path.parent().filter(|p| p.exists());
+    let buffers = gltf::import_buffers(&document, base, blob)
+        .map_err(|e| MeshError::invalid(path, format!("buffers: {e}")))?;
+
+    let mut scene = Scene {
+        materials: document
+            .materials()
+            .map(|m| Material {
+                name: m.name().unwrap_or_default().to_owned(),
+                alpha_tested: m.alpha_mode() != gltf::material::AlphaMode::Opaque,
+            })
+            .collect(),
+        ..Scene::default()
+    };
+    let default_material = scene.materials.len() as u32;
+    scene.materials.push(Material::default());
+
+    for mesh in document.meshes() {
+        let mut out = TriMesh {
+            name: mesh.name().unwrap_or_default().to_owned(),
+            ..TriMesh::default()
+        };
+        let mut shared_positions: Option<(usize, u32)> = None;
+        for (p, primitive) in mesh.primitives().enumerate() {
+            let context = |what: &str| {
+                format!(
+                    "mesh {} ('{}') primitive {p}: {what}",
+                    mesh.index(),
+                    out.name
+                )
+            };
+            if !matches!(
+                primitive.mode(),
+                Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+            ) {
+                continue;
+            }
+            let Some(position_accessor) = primitive.get(&gltf::Semantic::Positions) else {
+                return Err(MeshError::invalid(path, context("no POSITION attribute")));
+            };
+            check_accessor(&position_accessor, &buffers)
+                .map_err(|e| MeshError::invalid(path, context(&e)))?;
+            if let Some(indices) = primitive.indices() {
+                check_accessor(&indices, &buffers)
+                    .map_err(|e| MeshError::invalid(path, context(&e)))?;
+            }
+            let data = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
+            // Primitives that share one POSITION accessor share vertices.
+            let base = match shared_positions {
+                Some((accessor, base)) if accessor == position_accessor.index() => base,
+                _ => {
+                    let base = out.positions.len() as u32;
+                    let positions = data
+                        .read_positions()
+                        .ok_or_else(|| MeshError::invalid(path, context("unreadable POSITION")))?;
+                    out.positions.extend(positions.map(Vec3::from_array));
+                    shared_positions = Some((position_accessor.index(), base));
+                    base
+                }
+            };
+            let corners: Vec<u32> = match data.read_indices() {
+                Some(indices) => indices.into_u32().collect(),
+                None => (0..position_accessor.count() as u32).collect(),
+            };
+            let triangles = assemble(primitive.mode(), &corners);
+            let material = primitive
+                .material()
+                .index()
+                .map_or(default_material, |m| m as u32);
+            let alpha = scene.materials[material as usize].alpha_tested;
+            out.triangles
+                .extend(triangles.iter().map(|t| t.map(|v| v.saturating_add(base))));
+            out.material_ids
+                .extend(std::iter::repeat_n(material, triangles.len()));
+            out.alpha_tested
+                .extend(std::iter::repeat_n(alpha, triangles.len()));
+        }
+        scene.meshes.push(out);
+    }
+
+    let roots: Vec<gltf::Node> = match document
+        .default_scene()
+        .or_else(|| document.scenes().next())
+    {
+        Some(s) => s.nodes().collect(),
+        None => Vec::new(),
+    };
+    for node in roots {
+        place_nodes(&node, Affine3A::IDENTITY, 0, &mut scene.instances);
+    }
+    if scene.instances.is_empty() {
+        // No scene graph: show every mesh once, untransformed.
+        scene.instances = (0..scene.meshes.len())
+            .map(|mesh| Instance {
+                mesh,
+                transform: Affine3A::IDENTITY,
+            })
+            .collect();
+    }
+    Ok(scene)
+}
+
+fn place_nodes(node: &gltf::Node, parent: Affine3A, depth: usize, instances: &mut Vec<Instance>) {
+    if depth > MAX_NODE_DEPTH {
+        return;
+    }
+    let local = Affine3A::from_mat4(Mat4::from_cols_array_2d(&node.transform().matrix()));
+    let world = parent * local;
+    if let Some(mesh) = node.mesh() {
+        instances.push(Instance {
+            mesh: mesh.index(),
+            transform: world,
+        });
+    }
+    for child in node.children() {
+        place_nodes(&child, world, depth + 1, instances);
+    }
+}
+
+/// Triangles from a primitive's corner list, in order.
+fn assemble(mode: Mode, corners: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::TriangleStrip => corners
+            .windows(3)
+            .enumerate()
+            .map(|(i, w)| {
+                if i % 2 == 0 {
+                    [w[0], w[1], w[2]]
+                } else {
+                    [w[1], w[0], w[2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => corners
+            .windows(2)
+            .skip(1)
+            .map(|w| [corners[0], w[0], w[1]])
+            .collect(),
+        _ => corners
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect(),
+    }
+}
+
+fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> Result<(), String> {
+    if accessor.sparse().is_some() {
+        return Err("sparse accessors are not supported".into());
+    }
+    let Some(view) = accessor.view() else {
+        return Err(format!("accessor {} has no buffer view", accessor.index()));
+    };
+    let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.0.len());
+    let view_end = view.offset().checked_add(view.length());
+    if view_end.is_none_or(|end| end > buffer_len) {
+        return Err(format!(
+            "buffer view {} (offset {}, length {}) runs past its buffer of {buffer_len} bytes",
+            view.index(),
+            view.offset(),
+            view.length()
+        ));
+    }
+    let element = accessor.size();
+    let stride = view.stride().unwrap_or(element).max(element);
+    let needed = match accessor.count() {
+        0 => Some(0),
+        n => (n - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(element))
+            .and_then(|x| x.checked_add(accessor.offset())),
+    };
+    if needed.is_none_or(|n| n > view.length()) {
+        return Err(format!(
+            "accessor {} ({} elements) runs past its buffer view of {} bytes",
+            accessor.index(),
+            accessor.count(),
+            view.length()
+        ));
+    }
+    Ok(())
+}
+
+pub(super) fn write(scene: &Scene, path: &Path, binary: bool) -> std::io::Result<()> {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| {
+        while bin.len() % 4 != 0 {
+            bin.push(0);
+        }
+        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len(), "target": target}));
+        bin.extend_from_slice(bytes);
+        views.len() - 1
+    };
+    let mut meshes = Vec::new();
+    for mesh in &scene.meshes {
+        let positions: Vec<u8> = mesh
+            .positions
+            .iter()
+            .flat_map(|p| p.to_array())
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        let finite =
+            crate::geom::Aabb::from_points(mesh.positions.iter().filter(|p| p.is_finite()));
+        let (min, max) = if finite.is_empty() {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (finite.min, finite.max)
+        };
+        let view = push_view(&mut bin, &positions, 34962);
+        accessors.push(
+            json!({"bufferView": view, "componentType": 5126, "count": mesh.positions.len(),
+            "type": "VEC3", "min": min.to_array(), "max": max.to_array()}),
+        );
+        let position_accessor = accessors.len() - 1;
+        let mut primitives = Vec::new();
+        // One primitive per run of equal material, so triangle order is kept.
+        let mut start = 0;
+        while start < mesh.triangles.len() {
+            let material = mesh.material_ids.get(start).copied().unwrap_or(0);
+            let end = (start..mesh.triangles.len())
+                .find(|&t| mesh.material_ids.get(t).copied().unwrap_or(0) != material)
+                .unwrap_or(mesh.triangles.len());
+            let indices: Vec<u8> = mesh.triangles[start..end]
+                .iter()
+                .flatten()
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
+            let view = push_view(&mut bin, &indices, 34963);
+            accessors.push(json!({"bufferView": view, "componentType": 5125, "count": (end - start) * 3, "type": "SCALAR"}));
+            let mut primitive = json!({"attributes": {"POSITION": position_accessor}, "indices": accessors.len() - 1, "mode": 4});
+            if (material as usize) < scene.materials.len() {
+                primitive["material"] = json!(material);
+            }
+            primitives.push(primitive);
+            start = end;
+        }
+        meshes.push(json!({"name": mesh.name, "primitives": primitives}));
+    }
+    while bin.len() % 4 != 0 {
+        bin.push(0);
+    }
+    let nodes: Vec<_> = scene
+        .instances
+        .iter()
+        .map(|i| {
+            let mut node = json!({"mesh": i.mesh});
+            if i.transform != Affine3A::IDENTITY {
+                node["matrix"] = json!(Mat4::from(i.transform).to_cols_array());
+            }
+            node
+        })
+        .collect();
+    let materials: Vec<_> = scene
+        .materials
+        .iter()
+        .map(|m| json!({"name": m.name, "alphaMode": if m.alpha_tested { "MASK" } else { "OPAQUE" }}))
+        .collect();
+    let mut buffer = json!({"byteLength": bin.len()});
+    if !binary {
+        let bin_name = path.with_extension("bin");
+        std::fs::write(&bin_name, &bin)?;
+        buffer["uri"] = json!(bin_name
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or("buffer.bin"));
+    }
+    let root = json!({
+        "asset": {"version": "2.0", "generator": concat!("rtmesh ", env!("CARGO_PKG_VERSION"))},
+        "scene": 0,
+        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
+        "nodes": nodes, "meshes": meshes, "materials": materials,
+        "accessors": accessors, "bufferViews": views, "buffers": [buffer],
+    });
+    let json_bytes = serde_json::to_vec(&root)?;
+    if binary {
+        let mut json_padded = json_bytes;
+        while json_padded.len() % 4 != 0 {
+            json_padded.push(b' ');
+        }
+        let glb = gltf::binary::Glb {
+            header: gltf::binary::Header {
+                magic: *b"glTF",
+                version: 2,
+                length: 0,
+            },
+            json: Cow::Owned(json_padded),
+            bin: Some(Cow::Owned(bin)),
+        };
+        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
+        glb.to_writer(file)
+            .map_err(|e| std::io::Error::other(e.to_string()))
+    } else {
+        std::fs::write(path, json_bytes)
+    }
+}

@@ -1,0 +1,270 @@
+//! Reading and writing meshes: OBJ (tobj), PLY (ply-rs-bw) and glTF/GLB (gltf).
+//!
+//! Every reader returns a [`MeshError`] on bad input, never panics, and names the file
+//! and, where the format has lines, the line (OBJ, ascii PLY) or else the byte offset or
+//! element. Writers keep triangle order exactly, so optimizers can rely on it.
+//!
+//! Repairs done while reading, and documented here: polygons are fan-triangulated
+//! (`v0, vi, vi+1`); OBJ vertices are renumbered in order of first use per geometry
+//! (tobj's behaviour), unused vertices dropped. NaN and infinite positions are kept
+//! (DXR treats NaN triangles as inactive); [`crate::mesh::validate`] reports them.
+
+mod gltf;
+mod obj;
+mod ply;
+
+use crate::mesh::Scene;
+use std::io::{BufRead, Read};
+use std::path::{Path, PathBuf};
+
+/// Errors from reading or writing a mesh file. Each names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshError {
+    /// The file could not be opened, read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What the operating system said.
+        source: std::io::Error,
+    },
+    /// A syntax or content error at a known line (1-based).
+    #[error("{}:{line}: {message}", path.display())]
+    AtLine {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// An error in a binary file, or one without a line to point at.
+    #[error("{}: {message}", path.display())]
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, with the byte offset or element where known.
+        message: String,
+    },
+    /// The extension is not one rtmesh reads or writes.
+    #[error("{}: unknown mesh format (expected .obj, .ply, .gltf or .glb)", path.display())]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+    },
+}
+
+impl MeshError {
+    pub(crate) fn invalid(path: &Path, message: impl Into<String>) -> Self {
+        Self::Invalid {
+            path: path.to_owned(),
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn at_line(path: &Path, line: usize, message: impl Into<String>) -> Self {
+        Self::AtLine {
+            path: path.to_owned(),
+            line,
+            message: message.into(),
+        }
+    }
+
+    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.to_owned(),
+            source,
+        }
+    }
+}
+
+/// The mesh file formats.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Format {
+    /// Wavefront OBJ (text).
+    Obj,
+    /// Stanford PLY (ascii or binary; written as binary little-endian).
+    Ply,
+    /// glTF 2.0 JSON with a `.bin` beside it.
+    Gltf,
+    /// glTF 2.0 binary.
+    Glb,
+}
+
+impl Format {
+    /// The format named by `path`'s extension.
+    pub fn from_path(path: &Path) -> Result<Self, MeshError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("obj") => Ok(Self::Obj),
+            Some("ply") => Ok(Self::Ply),
+            Some("gltf") => Ok(Self::Gltf),
+            Some("glb") => Ok(Self::Glb),
+            _ => Err(MeshError::UnknownFormat {
+                path: path.to_owned(),
+            }),
+        }
+    }
+}
+
+/// Called with (bytes read so far, total bytes) while a file is read.
+pub type Progress<'a> = &'a mut dyn FnMut(u64, u64);
+
+/// Read a mesh file into a [`Scene`].
+pub fn read(path: &Path) -> Result<Scene, MeshError> {
+    read_with_progress(path, &mut |_, _| {})
+}
+
+/// Read a mesh file, reporting progress in bytes.
+pub fn read_with_progress(path: &Path, progress: Progress) -> Result<Scene, MeshError> {
+    let format = Format::from_path(path)?;
+    let file = std::fs::File::open(path).map_err(|e| MeshError::io(path, e))?;
+    let total = file.metadata().map(|m| m.len()).unwrap_or(0);
+    let reader = CountingReader::new(
+        std::io::BufReader::with_capacity(1 << 16, file),
+        total,
+        progress,
+    );
+    let scene = match format {
+        Format::Obj => obj::read(path, reader)?,
+        Format::Ply => ply::read(path, reader, total)?,
+        Format::Gltf | Format::Glb => gltf::read(path, reader)?,
+    };
+    check_indices(path, &scene)?;
+    Ok(scene)
+}
+
+/// Read a mesh from bytes in memory, as if from a file called `name` (the extension
+/// picks the format). glTF files that refer to external buffers cannot be read this way.
+pub fn read_bytes(name: &Path, bytes: &[u8]) -> Result<Scene, MeshError> {
+    let total = bytes.len() as u64;
+    let mut ignore = |_: u64, _: u64| {};
+    let reader = CountingReader::new(bytes, total, &mut ignore);
+    let scene = match Format::from_path(name)? {
+        Format::Obj => obj::read(name, reader)?,
+        Format::Ply => ply::read(name, reader, total)?,
+        Format::Gltf | Format::Glb => gltf::read(name, reader)?,
+    };
+    check_indices(name, &scene)?;
+    Ok(scene)
+}
+
+/// Write `scene` to `path` in the format its extension names. OBJ and PLY hold one
+/// level: instances are flattened into world space (OBJ keeps one group per instance).
+/// glTF/GLB keep meshes, materials and instance transforms.
+pub fn write(scene: &Scene, path: &Path) -> Result<(), MeshError> {
+    let format = Format::from_path(path)?;
+    let result = match format {
+        Format::Obj => obj::write(scene, path),
+        Format::Ply => ply::write(&scene.flatten(), path),
+        Format::Gltf | Format::Glb => gltf::write(scene, path, format == Format::Glb),
+    };
+    result.map_err(|e| MeshError::io(path, e))
+}
+
+/// Every reader ends here: no index may point past its mesh's vertices, no instance past
+/// the meshes.
+fn check_indices(path: &Path, scene: &Scene) -> Result<(), MeshError> {
+    for (m, mesh) in scene.meshes.iter().enumerate() {
+        let n = mesh.positions.len() as u64;
+        if let Some(t) = mesh
+            .triangles
+            .iter()
+            .position(|t| t.iter().any(|&v| v as u64 >= n))
+        {
+            return Err(MeshError::invalid(
+                path,
+                format!(
+                    "geometry {m} ('{}'): triangle {t} has vertex index {:?} but there are only {n} vertices",
+                    mesh.name, mesh.triangles[t]
+                ),
+            ));
+        }
+    }
+    if let Some(i) = scene
+        .instances
+        .iter()
+        .find(|i| i.mesh >= scene.meshes.len())
+    {
+        return Err(MeshError::invalid(
+            path,
+            format!("instance of missing mesh {}", i.mesh),
+        ));
+    }
+    Ok(())
+}
+
+/// A buffered reader that counts bytes and lines as they are consumed, and reports
+/// progress. Readers use it to name the line or byte offset of an error.
+pub(crate) struct CountingReader<'p, R> {
+    inner: R,
+    total: u64,
+    consumed: u64,
+    lines: usize,
+    in_line: bool,
+    last_report: u64,
+    progress: Progress<'p>,
+}
+
+impl<'p, R: BufRead> CountingReader<'p, R> {
+    fn new(inner: R, total: u64, progress: Progress<'p>) -> Self {
+        Self {
+            inner,
+            total,
+            consumed: 0,
+            lines: 0,
+            in_line: false,
+            last_report: 0,
+            progress,
+        }
+    }
+
+    /// 1-based number of the line being read (or last read).
+    pub(crate) fn line(&self) -> usize {
+        self.lines + usize::from(self.in_line)
+    }
+
+    /// Bytes consumed so far.
+    pub(crate) fn offset(&self) -> u64 {
+        self.consumed
+    }
+}
+
+impl<R: BufRead> Read for CountingReader<'_, R> {
+    fn read(&mut self, out: &mut [u8]) -> std::io::Result<usize> {
+        let available = self.fill_buf()?;
+        let n = available.len().min(out.len());
+        out[..n].copy_from_slice(&available[..n]);
+        self.consume(n);
+        Ok(n)
+    }
+}
+
+impl<R: BufRead> BufRead for CountingReader<'_, R> {
+    fn fill_buf(&mut self) -> std::io::Result<&[u8]> {
+        self.inner.fill_buf()
+    }
+
+    fn consume(&mut self, amount: usize) {
+        if let Ok(buffer) = self.inner.fill_buf() {
+            let taken = &buffer[..amount.min(buffer.len())];
+            let newlines = taken.iter().filter(|&&b| b == b'\n').count();
+            self.lines += newlines;
+            if let Some(&last) = taken.last() {
+                self.in_line = last != b'\n';
+            }
+        }
+        self.inner.consume(amount);
+        self.consumed += amount as u64;
+        if self.consumed - self.last_report >= 1 << 20 {
+            self.last_report = self.consumed;
+            (self.progress)(self.consumed, self.total);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests;

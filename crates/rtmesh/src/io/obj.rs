@@ -1,0 +1,184 @@
+//! Wavefront OBJ through tobj. Groups and objects become geometries (consecutive tobj
+//! models of one name are one geometry, so `usemtl` switches inside a group keep the
+//! group whole); polygons are fan-triangulated here so that a face with fewer than three
+//! vertices is an error with its line, not a silently dropped face. Materials come from
+//! the `mtllib` files beside the OBJ when present: `map_d` or `d < 1` marks them
+//! alpha-tested. A missing `.mtl` is not an error (many files ship without one).
+
+use super::{CountingReader, MeshError};
+use crate::mesh::{Material, Scene, TriMesh};
+use glam::{Affine3A, Vec3};
+use std::io::{BufRead, Read, Write};
+use std::path::Path;
+
+pub(super) fn read<R: BufRead>(
+    path: &Path,
+    mut reader: CountingReader<'_, R>,
+) -> Result<Scene, MeshError> {
+    let mut text = Vec::new();
+    reader
+        .read_to_end(&mut text)
+        .map_err(|e| MeshError::io(path, e))?;
+    let options = tobj::LoadOptions {
+        single_index: false,
+        triangulate: false,
+        ignore_points: false,
+        ignore_lines: false,
+    };
+    let directory = path.parent().map(Path::to_owned).unwrap_or_default();
+    let mut ignore = |_: u64, _: u64| {};
+    let mut lines = CountingReader::new(&text[..], text.len() as u64, &mut ignore);
+    let (models, materials) = tobj::load_obj_buf(&mut lines, &options, |mtl| {
+        tobj::load_mtl(directory.join(mtl))
+    })
+    .map_err(|e| MeshError::at_line(path, lines.line(), describe(e)))?;
+    let materials = materials.unwrap_or_default();
+
+    let mut scene = Scene {
+        materials: materials
+            .iter()
+            .map(|m| Material {
+                name: m.name.clone(),
+                alpha_tested: m.dissolve_texture.is_some() || m.dissolve.is_some_and(|d| d < 1.0),
+            })
+            .collect(),
+        ..Scene::default()
+    };
+    // Faces with no material get an extra default material at the end.
+    let default_material = scene.materials.len() as u32;
+    let mut needs_default = false;
+    let mut faces_before = 0usize;
+    for model in &models {
+        let mesh = &model.mesh;
+        let positions: Vec<Vec3> = mesh
+            .positions
+            .chunks_exact(3)
+            .map(|p| Vec3::new(p[0], p[1], p[2]))
+            .collect();
+        let material = mesh.material_id.map_or_else(
+            || {
+                needs_default = true;
+                default_material
+            },
+            |m| m as u32,
+        );
+        let alpha = scene
+            .materials
+            .get(material as usize)
+            .is_some_and(|m| m.alpha_tested);
+        let target = match scene.meshes.last_mut() {
+            Some(last) if last.name == model.name => last,
+            _ => {
+                scene.push_mesh(
+                    TriMesh {
+                        name: model.name.clone(),
+                        ..TriMesh::default()
+                    },
+                    Affine3A::IDENTITY,
+                );
+                scene.meshes.last_mut().expect("just pushed")
+            }
+        };
+        let base = target.positions.len() as u32;
+        target.positions.extend(positions);
+        // tobj leaves `face_arities` empty when every face is a triangle.
+        let arities = if mesh.face_arities.is_empty() {
+            vec![3; mesh.indices.len() / 3]
+        } else {
+            mesh.face_arities.clone()
+        };
+        let mut start = 0usize;
+        for (face, &arity) in arities.iter().enumerate() {
+            let corners = &mesh.indices[start..start + arity as usize];
+            start += arity as usize;
+            if arity < 3 {
+                let line = nth_face_line(&text, faces_before + face);
+                return Err(MeshError::at_line(
+                    path,
+                    line,
+                    format!("face has {arity} vertices; a face needs at least 3"),
+                ));
+            }
+            for i in 1..corners.len() - 1 {
+                target.triangles.push([
+                    corners[0] + base,
+                    corners[i] + base,
+                    corners[i + 1] + base,
+                ]);
+                target.material_ids.push(material);
+                target.alpha_tested.push(alpha);
+            }
+        }
+        faces_before += arities.len();
+    }
+    scene.source_vertex_count = Some(
+        text.split(|&b| b == b'\n')
+            .filter(|line| line.trim_ascii_start().starts_with(b"v "))
+            .count(),
+    );
+    if needs_default || scene.materials.is_empty() {
+        scene.materials.push(Material::default());
+    }
+    Ok(scene)
+}
+
+fn describe(error: tobj::LoadError) -> String {
+    match error {
+        tobj::LoadError::ReadError => "cannot read line (not valid UTF-8 text?)".into(),
+        tobj::LoadError::FaceParseError => {
+            "bad face: expected 'f' followed by vertex indices (1-based or negative, in range)"
+                .into()
+        }
+        tobj::LoadError::PositionParseError => "bad vertex: expected 'v x y z' with numbers".into(),
+        other => format!("{other}"),
+    }
+}
+
+/// 1-based line of the `n`-th (0-based) face statement, found only when reporting an error.
+fn nth_face_line(text: &[u8], n: usize) -> usize {
+    text.split(|&b| b == b'\n')
+        .enumerate()
+        .filter(|(_, line)| {
+            let trimmed = line.trim_ascii_start();
+            trimmed.starts_with(b"f ") || trimmed.starts_with(b"f\t") || trimmed == b"f"
+        })
+        .nth(n)
+        .map_or(0, |(i, _)| i + 1)
+}
+
+pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(out, "# written by rtmesh {}", env!("CARGO_PKG_VERSION"))?;
+    let mut base = 1usize;
+    for (i, instance) in scene.instances.iter().enumerate() {
+        let mesh = &scene.meshes[instance.mesh];
+        let name = if mesh.name.is_empty() {
+            format!("geometry{i}")
+        } else {
+            mesh.name.replace(char::is_whitespace, "_")
+        };
+        writeln!(out, "o {name}")?;
+        for p in &mesh.positions {
+            // `{}` prints the shortest decimal that reads back to the same f32.
+            let p = instance.transform.transform_point3(*p);
+            writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        let mut material = None;
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let m = mesh.material_ids.get(t).copied();
+            if m != material {
+                material = m;
+                if let Some(named) = m
+                    .and_then(|m| scene.materials.get(m as usize))
+                    .filter(|m| !m.name.is_empty())
+                {
+                    writeln!(out, "usemtl {}", named.name)?;
+                }
+            }
+            let [a, b, c] = tri.map(|v| v as usize + base);
+            writeln!(out, "f {a} {b} {c}")?;
+        }
+        base += mesh.positions.len();
+    }
+    out.flush()
+}

@@ -1,0 +1,15 @@
+//! rtmesh prepares triangle meshes for ray tracing and measures the gain with its own
+//! CPU ray tracer.
+//!
+//! Data flow: [`io`] reads a file into a [`mesh::Scene`]; [`mesh`] validates, welds and
+//! finds edge adjacency; [`scenes`] makes procedural test scenes.
+#![warn(missing_docs)]
+
+pub mod geom;
+pub mod io;
+pub mod mesh;
+pub mod random;
+pub mod scenes;
+
+pub use geom::{Aabb, Ray};
+pub use mesh::{Instance, Material, Scene, TriMesh};

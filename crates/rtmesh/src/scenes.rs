@@ -1,0 +1,230 @@
+//! Procedural scenes for tests, benchmarks and the built-in demo. All are deterministic.
+//!
+//! - [`scan_blob`]: a closed, bumpy, irregularly triangulated surface, like a 3D scan.
+//! - [`rotated_grid`]: a quad grid turned 45° about Z and triangulated: every edge is
+//!   diagonal to the axes, the case the pairing paper uses.
+//! - [`fan_cylinder`]: a closed cylinder whose caps are triangle fans and whose sides are
+//!   long thin triangles, the shapes NVIDIA's mesh advice warns about.
+//! - [`room`]: a small multi-object scene (several geometries, one instanced twice).
+
+use crate::mesh::{Scene, TriMesh};
+use crate::random::SplitMix64;
+use glam::{Affine3A, Quat, Vec3};
+use std::f32::consts::{PI, TAU};
+
+/// Names accepted by [`by_name`].
+pub const NAMES: [&str; 4] = ["blob", "grid", "cylinder", "room"];
+
+/// A built-in scene by name (see [`NAMES`]) at its default size.
+pub fn by_name(name: &str) -> Option<Scene> {
+    match name {
+        "blob" => Some(Scene::from_mesh(scan_blob(100_000, 1))),
+        "grid" => Some(Scene::from_mesh(rotated_grid(128))),
+        "cylinder" => Some(Scene::from_mesh(fan_cylinder(256))),
+        "room" => Some(room()),
+        _ => None,
+    }
+}
+
+/// A latitude–longitude sphere of `rings` interior rings of `segments` vertices each, plus
+/// two poles, with the vertex at (ring, segment) placed by `place(latitude, longitude)`
+/// (both in radians) and each quad's diagonal chosen by `flip(ring, segment)`.
+fn latitude_longitude(
+    rings: usize,
+    segments: usize,
+    mut place: impl FnMut(f32, f32) -> Vec3,
+    mut flip: impl FnMut(usize, usize) -> bool,
+) -> TriMesh {
+    let mut positions = vec![place(-PI / 2.0, 0.0)];
+    for r in 0..rings {
+        let latitude = -PI / 2.0 + PI * (r + 1) as f32 / (rings + 1) as f32;
+        for s in 0..segments {
+            positions.push(place(latitude, TAU * s as f32 / segments as f32));
+        }
+    }
+    positions.push(place(PI / 2.0, 0.0));
+    let north = (positions.len() - 1) as u32;
+    let at = |r: usize, s: usize| (1 + r * segments + s % segments) as u32;
+    let mut triangles = Vec::with_capacity(2 * segments * rings);
+    for s in 0..segments {
+        triangles.push([0, at(0, s + 1), at(0, s)]);
+        triangles.push([north, at(rings - 1, s), at(rings - 1, s + 1)]);
+    }
+    for r in 0..rings - 1 {
+        for s in 0..segments {
+            let (a, b, c, d) = (at(r, s), at(r, s + 1), at(r + 1, s + 1), at(r + 1, s));
+            if flip(r, s) {
+                triangles.push([a, b, d]);
+                triangles.push([b, c, d]);
+            } else {
+                triangles.push([a, b, c]);
+                triangles.push([a, c, d]);
+            }
+        }
+    }
+    TriMesh::new(positions, triangles)
+}
+
+/// A closed, bumpy surface of about `target_triangles` triangles with an irregular
+/// triangulation (jittered vertices, random diagonals), like a scanned object.
+pub fn scan_blob(target_triangles: usize, seed: u64) -> TriMesh {
+    let segments = ((target_triangles as f32).sqrt() * 1.4).max(6.0) as usize;
+    let rings = (target_triangles / (2 * segments)).max(2);
+    let mut rng = SplitMix64::new(seed);
+    let mut jitter = SplitMix64::new(seed ^ 0xA5A5);
+    let ring_step = PI / (rings + 1) as f32;
+    let segment_step = TAU / segments as f32;
+    latitude_longitude(
+        rings,
+        segments,
+        |lat, lon| {
+            let (lat, lon) = if lat.abs() < PI / 2.0 {
+                (
+                    lat + (jitter.next_f32() - 0.5) * 0.4 * ring_step,
+                    lon + (jitter.next_f32() - 0.5) * 0.4 * segment_step,
+                )
+            } else {
+                (lat, lon)
+            };
+            let direction = Vec3::new(lat.cos() * lon.cos(), lat.sin(), lat.cos() * lon.sin());
+            let bumps = 0.12 * (3.0 * lon).sin() * (2.0 * lat).cos()
+                + 0.05 * (7.0 * lon + 1.0).sin() * (5.0 * lat).sin()
+                + 0.02 * (17.0 * lon).cos() * (13.0 * lat + 0.5).sin();
+            direction * Vec3::new(1.0, 1.3, 0.8) * (1.0 + bumps)
+        },
+        |_, _| rng.next_u64() & 1 == 1,
+    )
+}
+
+/// A UV sphere of radius 1 (closed), `rings` × `segments`.
+pub fn uv_sphere(rings: usize, segments: usize) -> TriMesh {
+    latitude_longitude(
+        rings,
+        segments,
+        |lat, lon| Vec3::new(lat.cos() * lon.cos(), lat.sin(), lat.cos() * lon.sin()),
+        |_, _| false,
+    )
+}
+
+/// An `n` × `n` grid of unit quads in the XY plane, turned 45° about Z, each quad split
+/// along the same diagonal.
+pub fn rotated_grid(n: usize) -> TriMesh {
+    let rotation = Quat::from_rotation_z(PI / 4.0);
+    let side = n + 1;
+    let positions = (0..side * side)
+        .map(|i| {
+            let (x, y) = ((i % side) as f32, (i / side) as f32);
+            rotation * Vec3::new(x - n as f32 / 2.0, y - n as f32 / 2.0, 0.0)
+        })
+        .collect();
+    let mut triangles = Vec::with_capacity(2 * n * n);
+    for y in 0..n {
+        for x in 0..n {
+            let a = (y * side + x) as u32;
+            let (b, c, d) = (a + 1, a + 1 + side as u32, a + side as u32);
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    TriMesh::new(positions, triangles)
+}
+
+/// A closed cylinder of radius 1 and height 4 along Y with `segments` sides: caps are
+/// fans around a centre vertex, sides are one row of long thin triangles.
+pub fn fan_cylinder(segments: usize) -> TriMesh {
+    let mut positions = vec![Vec3::new(0.0, -2.0, 0.0), Vec3::new(0.0, 2.0, 0.0)];
+    for y in [-2.0, 2.0] {
+        for s in 0..segments {
+            let angle = TAU * s as f32 / segments as f32;
+            positions.push(Vec3::new(angle.cos(), y, angle.sin()));
+        }
+    }
+    let bottom = |s: usize| (2 + s % segments) as u32;
+    let top = |s: usize| (2 + segments + s % segments) as u32;
+    let mut triangles = Vec::with_capacity(4 * segments);
+    for s in 0..segments {
+        triangles.push([0, bottom(s), bottom(s + 1)]);
+        triangles.push([1, top(s + 1), top(s)]);
+        triangles.push([bottom(s), top(s), top(s + 1)]);
+        triangles.push([bottom(s), top(s + 1), bottom(s + 1)]);
+    }
+    TriMesh::new(positions, triangles)
+}
+
+/// A closed axis-aligned box with outward-facing triangles.
+pub fn box_mesh(min: Vec3, max: Vec3) -> TriMesh {
+    let positions = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 1 == 0 { min.x } else { max.x },
+                if i & 2 == 0 { min.y } else { max.y },
+                if i & 4 == 0 { min.z } else { max.z },
+            )
+        })
+        .collect();
+    let quads = [
+        [0, 2, 3, 1],
+        [4, 5, 7, 6],
+        [0, 1, 5, 4],
+        [2, 6, 7, 3],
+        [0, 4, 6, 2],
+        [1, 3, 7, 5],
+    ];
+    let triangles = quads
+        .iter()
+        .flat_map(|&[a, b, c, d]| [[a, b, c], [a, c, d]])
+        .collect();
+    TriMesh::new(positions, triangles)
+}
+
+/// A small room: floor, walls, a table and two instances of one sphere.
+pub fn room() -> Scene {
+    let mut scene = Scene::default();
+    scene.materials.push(crate::mesh::Material::default());
+    let named = |name: &str, mut mesh: TriMesh| {
+        mesh.name = name.to_owned();
+        mesh
+    };
+    let identity = Affine3A::IDENTITY;
+    scene.push_mesh(
+        named("floor", rotated_grid(16)),
+        Affine3A::from_rotation_x(-PI / 2.0),
+    );
+    scene.push_mesh(
+        named(
+            "back wall",
+            box_mesh(Vec3::new(-8.0, 0.0, -8.5), Vec3::new(8.0, 6.0, -8.0)),
+        ),
+        identity,
+    );
+    scene.push_mesh(
+        named(
+            "left wall",
+            box_mesh(Vec3::new(-8.5, 0.0, -8.0), Vec3::new(-8.0, 6.0, 8.0)),
+        ),
+        identity,
+    );
+    let mut table = box_mesh(Vec3::new(-2.0, 1.0, -1.0), Vec3::new(2.0, 1.2, 1.0));
+    for (x, z) in [(-1.8, -0.8), (1.6, -0.8), (-1.8, 0.6), (1.6, 0.6)] {
+        let leg = box_mesh(Vec3::new(x, 0.0, z), Vec3::new(x + 0.2, 1.0, z + 0.2));
+        table.append(&leg, &identity, 0);
+    }
+    scene.push_mesh(named("table", table), identity);
+    let ball = scene.push_mesh(
+        named("ball", uv_sphere(24, 48)),
+        Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.5),
+            Quat::IDENTITY,
+            Vec3::new(-1.0, 1.7, 0.0),
+        ),
+    );
+    scene.instances.push(crate::mesh::Instance {
+        mesh: ball,
+        transform: Affine3A::from_scale_rotation_translation(
+            Vec3::splat(0.8),
+            Quat::IDENTITY,
+            Vec3::new(4.0, 0.8, 3.0),
+        ),
+    });
+    scene
+}
