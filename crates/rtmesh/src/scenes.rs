@@ -228,3 +228,72 @@ pub fn room() -> Scene {
     });
     scene
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{connected_components, validate, EdgeAdjacency};
+    use proptest::prelude::*;
+
+    /// Closed manifold genus-0 mesh: every edge has two triangles, V − E + F = 2.
+    fn assert_closed_sphere(mesh: &TriMesh) {
+        assert!(validate(mesh).is_clean());
+        let adjacency = EdgeAdjacency::build(mesh);
+        let (v, e, f) = (
+            mesh.positions.len() as i64,
+            adjacency.edges.len() as i64,
+            mesh.triangle_count() as i64,
+        );
+        assert_eq!(
+            adjacency.manifold_edge_count() as i64,
+            e,
+            "every edge has two triangles"
+        );
+        assert_eq!(2 * e, 3 * f);
+        assert_eq!(v - e + f, 2, "Euler characteristic of a sphere");
+        assert_eq!(connected_components(&adjacency).1, 1);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(24))]
+        #[test]
+        fn blobs_are_closed_spheres(target in 20usize..5_000, seed in any::<u64>()) {
+            assert_closed_sphere(&scan_blob(target, seed));
+        }
+
+        #[test]
+        fn spheres_and_cylinders_are_closed(rings in 2usize..30, segments in 3usize..60) {
+            assert_closed_sphere(&uv_sphere(rings, segments));
+            assert_closed_sphere(&fan_cylinder(segments));
+        }
+
+        #[test]
+        fn grid_satisfies_euler_for_a_disk(n in 1usize..40) {
+            let mesh = rotated_grid(n);
+            let adjacency = EdgeAdjacency::build(&mesh);
+            let (v, e, f) = (mesh.positions.len() as i64, adjacency.edges.len() as i64, mesh.triangle_count() as i64);
+            prop_assert_eq!(v - e + f, 1);
+            prop_assert_eq!(adjacency.boundary_edge_count(), 4 * n);
+        }
+    }
+
+    #[test]
+    fn boxes_and_the_default_scenes() {
+        assert_closed_sphere(&box_mesh(Vec3::ZERO, Vec3::ONE));
+        let blob = scan_blob(100_000, 1);
+        assert!(
+            (95_000..105_000).contains(&blob.triangle_count()),
+            "{}",
+            blob.triangle_count()
+        );
+        for name in NAMES {
+            assert!(by_name(name).unwrap().instanced_triangle_count() > 0);
+        }
+        let room = room();
+        assert!(room.meshes.len() >= 4);
+        assert!(
+            room.instances.len() > room.meshes.len(),
+            "one mesh is instanced twice"
+        );
+    }
+}

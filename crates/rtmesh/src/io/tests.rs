@@ -1,1 +1,196 @@
+//! Reader and writer tests: every kind of bad input gives an error naming the file and
+//! line (or offset), and round trips keep positions and triangle order bit-exact.
 
+use super::*;
+use crate::mesh::{Scene, TriMesh};
+use crate::scenes;
+
+fn error_of(name: &str, bytes: &[u8]) -> String {
+    match read_bytes(Path::new(name), bytes) {
+        Ok(scene) => panic!(
+            "{name}: expected an error, read {} meshes",
+            scene.meshes.len()
+        ),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn obj_errors_name_file_and_line() {
+    let cases: [(&[u8], &str); 6] = [
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n",
+            "bad.obj:5:",
+        ),
+        (b"v 0 0 0\nv 1 0 zero\n", "bad.obj:2:"),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+            "bad.obj:4: face has 2 vertices",
+        ),
+        (
+            b"v 0 0 0\nv 1 0 0\n\nv 0 1 0\nf 1 2 3\nf 1 x 3\n",
+            "bad.obj:6:",
+        ),
+        (b"v 0 0 0\n\xff\xfe v 1 0 0\n", "bad.obj:2:"),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 3\n",
+            "bad.obj:5: face has 1 vertices",
+        ),
+    ];
+    for (bytes, expected) in cases {
+        let message = error_of("bad.obj", bytes);
+        assert!(
+            message.starts_with(expected),
+            "{message:?} should start with {expected:?}"
+        );
+    }
+}
+
+#[test]
+fn empty_files_read_as_empty_or_fail_clearly() {
+    let obj = read_bytes(Path::new("empty.obj"), b"").expect("an empty OBJ is an empty scene");
+    assert_eq!(obj.instanced_triangle_count(), 0);
+    assert!(error_of("empty.ply", b"").starts_with("empty.ply:"));
+    assert!(error_of("empty.glb", b"").starts_with("empty.glb:"));
+    assert!(error_of("empty.gltf", b"").starts_with("empty.gltf:"));
+}
+
+const ASCII_PLY_HEADER: &str = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+
+#[test]
+fn ply_ascii_reads_and_errors_name_the_line() {
+    let good = format!("{ASCII_PLY_HEADER}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    let scene = read_bytes(Path::new("t.ply"), good.as_bytes()).unwrap();
+    assert_eq!(scene.meshes[0].triangles, vec![[0, 1, 2]]);
+
+    let bad_number = format!("{ASCII_PLY_HEADER}0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n");
+    let message = error_of("t.ply", bad_number.as_bytes());
+    assert!(message.starts_with("t.ply:11:"), "{message}");
+
+    let out_of_range = format!("{ASCII_PLY_HEADER}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+    assert!(error_of("t.ply", out_of_range.as_bytes()).contains("vertex index"));
+
+    let two_corners = format!("{ASCII_PLY_HEADER}0 0 0\n1 0 0\n0 1 0\n2 0 1\n");
+    assert!(error_of("t.ply", two_corners.as_bytes()).contains("face 0 has 2 vertices"));
+
+    let truncated = format!("{ASCII_PLY_HEADER}0 0 0\n1 0 0\n");
+    assert!(error_of("t.ply", truncated.as_bytes()).starts_with("t.ply:"));
+}
+
+#[test]
+fn ply_absurd_counts_fail_before_allocating() {
+    let header = "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\nproperty float z\nelement face 4000000000\nproperty list uchar uint vertex_indices\nend_header\n";
+    let message = error_of("huge.ply", header.as_bytes());
+    assert!(
+        message.contains("4000000000 'vertex' elements"),
+        "{message}"
+    );
+    let mut list = b"ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uint uint vertex_indices\nend_header\n".to_vec();
+    list.extend(std::iter::repeat_n(0u8, 36));
+    list.extend(4_000_000_000u32.to_le_bytes());
+    assert!(error_of("list.ply", &list).starts_with("list.ply:"));
+}
+
+#[test]
+fn ply_polygons_are_fan_triangulated() {
+    let text = "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar uint vertex_indices\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n-1 1 0\n5 0 1 2 3 4\n";
+    let scene = read_bytes(Path::new("p.ply"), text.as_bytes()).unwrap();
+    assert_eq!(
+        scene.meshes[0].triangles,
+        vec![[0, 1, 2], [0, 2, 3], [0, 3, 4]]
+    );
+}
+
+#[test]
+fn glb_with_lying_header_or_accessor_fails_clearly() {
+    let mut bytes = b"glTF".to_vec();
+    bytes.extend(2u32.to_le_bytes());
+    bytes.extend(4u32.to_le_bytes()); // length smaller than the header itself
+    assert!(error_of("x.glb", &bytes).contains("GLB header declares length"));
+
+    let json = r#"{"asset":{"version":"2.0"},"buffers":[{"byteLength":12,"uri":"data:application/octet-stream;base64,AAAAAAAAAAAAAAAA"}],
+        "bufferViews":[{"buffer":0,"byteLength":12}],
+        "accessors":[{"bufferView":0,"componentType":5126,"count":5,"type":"VEC3","min":[0,0,0],"max":[0,0,0]}],
+        "meshes":[{"primitives":[{"attributes":{"POSITION":0}}]}]}"#;
+    let message = error_of("x.gltf", json.as_bytes());
+    assert!(message.contains("runs past its buffer view"), "{message}");
+}
+
+/// The corners of every triangle of every instance, in order, as bit patterns.
+fn corner_bits(scene: &Scene) -> Vec<[u32; 9]> {
+    let flat = scene.flatten();
+    (0..flat.triangle_count())
+        .map(|t| {
+            let [a, b, c] = flat.corners(t);
+            let v = [a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z];
+            v.map(f32::to_bits)
+        })
+        .collect()
+}
+
+fn round_trip(scene: &Scene, extension: &str) -> Scene {
+    let dir = std::env::temp_dir().join(format!("rtmesh-io-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(format!("round-trip-{}.{extension}", scene.meshes.len()));
+    write(scene, &path).unwrap();
+    let back = read(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    back
+}
+
+#[test]
+fn round_trips_keep_corners_and_order_bit_exact() {
+    let mut blob = scenes::scan_blob(2_000, 7);
+    blob.positions[5].x = f32::from_bits(0x3f80_0001); // one ulp above 1
+    blob.positions[6].y = -0.0;
+    blob.positions[7].z = 1.0e-30;
+    let scenes = [Scene::from_mesh(blob), scenes::room()];
+    for scene in &scenes {
+        let original = corner_bits(scene);
+        for extension in ["obj", "ply", "glb", "gltf"] {
+            let back = round_trip(scene, extension);
+            assert_eq!(corner_bits(&back), original, "{extension}");
+            // A second trip is the identity on the stored form.
+            let again = round_trip(&back, extension);
+            assert_eq!(again.meshes, back.meshes, "{extension} second trip");
+        }
+        let glb = round_trip(scene, "glb");
+        assert_eq!(glb.instances, scene.instances, "glTF keeps instances");
+    }
+}
+
+#[test]
+fn gltf_keeps_materials_and_alpha_flags() {
+    let mut mesh = scenes::box_mesh(glam::Vec3::ZERO, glam::Vec3::ONE);
+    mesh.material_ids = vec![0, 0, 1, 1, 0, 0, 1, 1, 1, 1, 0, 0];
+    mesh.alpha_tested = mesh.material_ids.iter().map(|&m| m == 1).collect();
+    let mut scene = Scene::from_mesh(mesh);
+    scene.materials = vec![
+        crate::mesh::Material {
+            name: "stone".into(),
+            alpha_tested: false,
+        },
+        crate::mesh::Material {
+            name: "leaves".into(),
+            alpha_tested: true,
+        },
+    ];
+    let back = round_trip(&scene, "glb");
+    assert_eq!(back.meshes[0].triangles, scene.meshes[0].triangles);
+    assert_eq!(back.meshes[0].material_ids, scene.meshes[0].material_ids);
+    assert_eq!(back.meshes[0].alpha_tested, scene.meshes[0].alpha_tested);
+    assert_eq!(back.materials[..2], scene.materials[..]);
+}
+
+#[test]
+fn obj_groups_become_geometries_and_ngons_fans() {
+    let text = b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\ng first\nf 1 2 3 4\ng second\nf 1/1/1 3/1/1 4/1/1\nf -4 -3 -2\n";
+    let scene = read_bytes(Path::new("g.obj"), text).unwrap();
+    let names: Vec<_> = scene.meshes.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["first", "second"]);
+    assert_eq!(scene.meshes[0].triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    assert_eq!(scene.meshes[1].triangle_count(), 2);
+    assert_eq!(scene.source_vertex_count, Some(4));
+    let empty = TriMesh::default();
+    assert_eq!(empty.triangle_count(), 0);
+}

@@ -8,9 +8,9 @@
 //! `benches/adjacency.rs`).
 //!
 //! Boundary edges have one triangle, manifold edges two, non-manifold edges three or
-//! more. Half-edges of repeated-vertex corners (`a == a`) and of triangles with indices
-//! out of range are not edges; their slots in [`EdgeAdjacency::triangle_edges`] hold
-//! [`NO_EDGE`].
+//! more. Triangles that repeat a vertex (`[a, a, b]` is a line that would touch edge
+//! `(a, b)` twice) and triangles with indices out of range have no edges: their slots in
+//! [`EdgeAdjacency::triangle_edges`] hold [`NO_EDGE`].
 
 use super::TriMesh;
 
@@ -36,15 +36,18 @@ impl EdgeAdjacency {
     /// split vertices).
     pub fn build(mesh: &TriMesh) -> Self {
         let vertex_count = mesh.positions.len();
-        let valid = |t: &[u32; 3]| t.iter().all(|&v| (v as usize) < vertex_count);
+        let valid = |t: &[u32; 3]| {
+            t.iter().all(|&v| (v as usize) < vertex_count)
+                && t[0] != t[1]
+                && t[1] != t[2]
+                && t[2] != t[0]
+        };
         // Pass 1: count half-edges per smaller vertex.
         let mut start = vec![0u32; vertex_count + 1];
         for t in mesh.triangles.iter().filter(|t| valid(t)) {
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
-                if a != b {
-                    start[a.min(b) as usize + 1] += 1;
-                }
+                start[a.min(b) as usize + 1] += 1;
             }
         }
         for v in 0..vertex_count {
@@ -60,11 +63,9 @@ impl EdgeAdjacency {
             }
             for k in 0..3 {
                 let (a, b) = (t[k], t[(k + 1) % 3]);
-                if a != b {
-                    let c = &mut cursor[a.min(b) as usize];
-                    slots[*c as usize] = (a.max(b), (ti * 3 + k) as u32);
-                    *c += 1;
-                }
+                let c = &mut cursor[a.min(b) as usize];
+                slots[*c as usize] = (a.max(b), (ti * 3 + k) as u32);
+                *c += 1;
             }
         }
         drop(cursor);
@@ -218,17 +219,18 @@ mod tests {
         let mut m = tetrahedron();
         m.positions.push(Vec3::new(1.0, 1.0, 1.0));
         m.triangles.push([0, 1, 4]); // third triangle on edge (0, 1)
-        m.triangles.push([2, 2, 3]); // repeated vertex: one real edge (2, 3)
+        m.triangles.push([2, 2, 3]); // repeated vertex: no edges
         m.triangles.push([0, 1, 7]); // out of range: no edges
         let adj = EdgeAdjacency::build(&m);
         assert_eq!(adj.nonmanifold_edge_count(), 1);
         assert_eq!(adj.triangles_of(0), &[0, 1, 4]);
         assert_eq!(adj.boundary_edge_count(), 2); // (0,4) and (1,4)
-        assert_eq!(adj.triangle_edges[5][0], NO_EDGE);
+        assert_eq!(adj.triangle_edges[5], [NO_EDGE; 3]);
         assert_eq!(adj.triangle_edges[6], [NO_EDGE; 3]);
         let (component, count) = connected_components(&adj);
-        assert_eq!(count, 2);
+        assert_eq!(count, 3);
         assert_eq!(component[4], 0);
-        assert_eq!(component[6], 1);
+        assert_eq!(component[5], 1);
+        assert_eq!(component[6], 2);
     }
 }

@@ -1,0 +1,151 @@
+//! Data tests on the real meshes in `RTMESH_DATA` (default `../shared/meshes`, seen
+//! from the workspace root). Without the data they print a note and pass, unless
+//! `RTMESH_REQUIRE_DATA=1` (CI), where missing data fails loudly.
+
+use rtmesh::mesh::{weld_exact, MeshInfo};
+use std::path::PathBuf;
+
+fn data_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("RTMESH_DATA")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes")
+        });
+    if dir.join("MANIFEST.tsv").is_file() {
+        return Some(dir);
+    }
+    if std::env::var("RTMESH_REQUIRE_DATA").is_ok_and(|v| v == "1") {
+        panic!(
+            "RTMESH_REQUIRE_DATA=1 but no MANIFEST.tsv in {} (set RTMESH_DATA)",
+            dir.display()
+        );
+    }
+    eprintln!(
+        "note: no mesh data at {}; data test skipped (set RTMESH_DATA)",
+        dir.display()
+    );
+    None
+}
+
+/// (file, vertices, triangles) from MANIFEST.tsv.
+fn manifest(dir: &std::path::Path) -> Vec<(String, usize, usize)> {
+    let text = std::fs::read_to_string(dir.join("MANIFEST.tsv")).expect("MANIFEST.tsv");
+    text.lines()
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .map(|line| {
+            let f: Vec<&str> = line.split('\t').collect();
+            (
+                f[0].to_owned(),
+                f[2].parse().expect("vertices"),
+                f[3].parse().expect("triangles"),
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn every_manifest_mesh_reads_with_its_counts() {
+    let Some(dir) = data_dir() else { return };
+    let entries = manifest(&dir);
+    assert!(
+        entries.len() >= 20,
+        "manifest lists {} meshes",
+        entries.len()
+    );
+    for (file, vertices, triangles) in entries {
+        let scene = rtmesh::io::read(&dir.join(&file)).unwrap_or_else(|e| panic!("{e}"));
+        let info = MeshInfo::of(&scene);
+        assert_eq!(
+            (info.vertices, info.triangles),
+            (vertices, triangles),
+            "{file}"
+        );
+    }
+}
+
+#[test]
+fn known_topology_of_real_meshes() {
+    let Some(dir) = data_dir() else { return };
+    let info = |f: &str| MeshInfo::of(&rtmesh::io::read(&dir.join(f)).unwrap());
+    let bunny = info("stanford-bunny.obj");
+    assert_eq!((bunny.vertices, bunny.triangles), (35_947, 69_451));
+    assert_eq!(
+        bunny.welded_vertices, 34_834,
+        "unreferenced vertices are not geometry"
+    );
+    assert_eq!(bunny.components, 1);
+    let spot = info("spot.obj");
+    assert_eq!(
+        (spot.boundary_edges, spot.nonmanifold_edges, spot.components),
+        (0, 0, 1)
+    );
+    let engine = info("2CylinderEngine.glb");
+    assert_eq!((engine.meshes, engine.instances), (29, 67));
+    assert!(engine.instanced_triangles > engine.triangles);
+}
+
+#[test]
+fn welding_joins_split_vertices() {
+    let Some(dir) = data_dir() else { return };
+    // The teapot's seams repeat vertices: welding joins 403 of them.
+    let teapot = rtmesh::io::read(&dir.join("teapot.obj")).unwrap();
+    let welded = weld_exact(&teapot.meshes[0]);
+    assert_eq!(welded.merged, 403);
+    for t in 0..teapot.meshes[0].triangle_count() {
+        assert_eq!(welded.mesh.corners(t), teapot.meshes[0].corners(t));
+    }
+    // A triangle soup of the bunny (three vertices per triangle) welds back to its
+    // 34,834 used vertices.
+    let bunny = rtmesh::io::read(&dir.join("stanford-bunny.obj"))
+        .unwrap()
+        .flatten();
+    let soup_positions: Vec<_> = (0..bunny.triangle_count())
+        .flat_map(|t| bunny.corners(t))
+        .collect();
+    let soup = rtmesh::TriMesh::new(
+        soup_positions,
+        (0..bunny.triangle_count() as u32)
+            .map(|t| [3 * t, 3 * t + 1, 3 * t + 2])
+            .collect(),
+    );
+    let rewelded = weld_exact(&soup);
+    assert_eq!(rewelded.mesh.positions.len(), 34_834);
+    let adjacency = rtmesh::mesh::EdgeAdjacency::build(&rewelded.mesh);
+    assert_eq!(adjacency.boundary_edge_count(), 223);
+}
+
+#[test]
+fn real_meshes_round_trip_bit_exact() {
+    let Some(dir) = data_dir() else { return };
+    let out = std::env::temp_dir().join(format!("rtmesh-data-test-{}", std::process::id()));
+    std::fs::create_dir_all(&out).unwrap();
+    for file in [
+        "stanford-bunny.obj",
+        "dragon_vrip_res3.ply",
+        "2CylinderEngine.glb",
+        "sponza_dabrovic.obj",
+    ] {
+        let scene = rtmesh::io::read(&dir.join(file)).unwrap();
+        let flat = scene.flatten();
+        for extension in ["obj", "ply", "glb"] {
+            let path = out.join(format!("{file}.{extension}"));
+            rtmesh::io::write(&scene, &path).unwrap();
+            let back = rtmesh::io::read(&path).unwrap().flatten();
+            assert_eq!(
+                back.triangle_count(),
+                flat.triangle_count(),
+                "{file} -> {extension}"
+            );
+            for t in 0..flat.triangle_count() {
+                let bits = |c: [glam::Vec3; 3]| c.map(|p| p.to_array().map(f32::to_bits));
+                assert_eq!(
+                    bits(back.corners(t)),
+                    bits(flat.corners(t)),
+                    "{file} -> {extension}, triangle {t}"
+                );
+            }
+        }
+    }
+    std::fs::remove_dir_all(&out).ok();
+}
