@@ -5,7 +5,9 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use rtmesh::bvh::BuildSettings;
 use rtmesh::mesh::MeshInfo;
+use rtmesh::trace::{workload, RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 use std::path::{Path, PathBuf};
 
@@ -48,6 +50,35 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Trace a ray workload through rtmesh's BVH and report speed and work per ray.
+    ///
+    /// Builds a 4-wide binned-SAH BVH (two levels for scenes with instances), traces
+    /// the workload `--runs` times with counters off and reports the median, then once
+    /// with counters on for box and triangle tests per ray.
+    Trace {
+        /// The mesh file, or builtin:NAME.
+        mesh: String,
+        /// Which rays: primary (camera), diffuse (one bounce), shadow (to a point light).
+        #[arg(long, default_value = "primary")]
+        rays: RayKind,
+        /// Image size WIDTHxHEIGHT (one primary ray per pixel).
+        #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
+        size: (usize, usize),
+        /// Threads (0 = all cores).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
+        /// Timed runs; the median is reported.
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Benchmark tables that compare methods or tracers on many meshes.
+    Bench {
+        #[command(subcommand)]
+        what: BenchCommand,
+    },
     /// Run rtmesh on the built-in scenes (for now: their info).
     Demo {
         /// Print one JSON object instead of text.
@@ -80,6 +111,55 @@ fn load(mesh: &str) -> Result<Scene> {
     let scene = rtmesh::io::read_with_progress(path, &mut |done, _| bar.set_position(done));
     bar.finish_and_clear();
     Ok(scene?)
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Trace the same rays through rtmesh and (with --vs) another tracer, side by side.
+    ///
+    /// For every mesh, thread count and workload: builds each structure --builds
+    /// times and traces the workload --runs times, alternating tracers, and reports
+    /// medians, the Mrays/s ratio and the share of rays that hit the same triangle.
+    /// `--vs embree` needs a build with `--features embree` (and libembree-dev).
+    Trace {
+        /// Mesh files or builtin:NAME.
+        #[arg(required = true)]
+        meshes: Vec<String>,
+        /// The tracer to compare with: embree.
+        #[arg(long)]
+        vs: Option<String>,
+        /// Workloads, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "primary,diffuse")]
+        rays: Vec<RayKind>,
+        /// Thread counts, comma separated (0 = all cores).
+        #[arg(long, value_delimiter = ',', default_value = "1,2")]
+        threads: Vec<usize>,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
+        size: (usize, usize),
+        /// Timed runs per tracer (medians are reported).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Builds per structure (median build time is reported).
+        #[arg(long, default_value_t = 3)]
+        builds: usize,
+        /// Print one JSON object per line (mesh × workload × threads) instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn parse_size(text: &str) -> Result<(usize, usize), String> {
+    let (w, h) = text
+        .split_once('x')
+        .ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
+    let parse = |v: &str| v.parse::<usize>().ok().filter(|&n| n > 0 && n <= 1 << 15);
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!(
+            "bad size '{text}': expected WIDTHxHEIGHT with sides 1..32768"
+        )),
+    }
 }
 
 fn print_json(value: &impl serde::Serialize) -> Result<()> {
@@ -170,6 +250,79 @@ fn run(cli: Cli) -> Result<()> {
                 Ok(())
             }
         }
+        Command::Trace {
+            mesh,
+            rays,
+            size: (width, height),
+            threads,
+            runs,
+            json,
+        } => {
+            let scene = load(&mesh)?;
+            let report = workload::with_threads(threads, || {
+                let accel = SceneAccel::build(&scene, &BuildSettings::default());
+                let work = Workload::generate(rays, &scene, &accel, width, height, 1);
+                let run = workload::measure(&accel, &work, runs);
+                (accel.stats(), run, rayon::current_num_threads())
+            });
+            let (bvh, run, threads) = report;
+            if json {
+                let mut value = serde_json::to_value(&run)?;
+                value["mesh"] = serde_json::json!(mesh);
+                value["ray_kind"] = serde_json::json!(rays.name());
+                value["threads"] = serde_json::json!(threads);
+                value["bvh"] = serde_json::to_value(&bvh)?;
+                value["bvh"]["bytes"] = serde_json::json!(bvh.bytes);
+                print_json(&value)
+            } else {
+                println!(
+                    "{mesh}: {} {} rays on {threads} threads",
+                    run.rays,
+                    rays.name()
+                );
+                println!(
+                    "  speed        {:>10.2} Mrays/s  (median of {} runs: {:.4} s)",
+                    run.mrays_per_s,
+                    run.all_seconds.len(),
+                    run.seconds
+                );
+                println!(
+                    "  per ray      {:>10.2} box tests, {:.2} triangle tests, {:.2} nodes",
+                    run.box_tests_per_ray, run.tri_tests_per_ray, run.nodes_per_ray
+                );
+                println!(
+                    "  hits         {:>10}  (checksum {:016x})",
+                    run.hits, run.hit_checksum
+                );
+                println!(
+                    "  bvh          {:>10} nodes, {} leaves, SAH {:.2}, depth {}, {:.1} MB ({:.1} bytes/triangle), built in {:.3} s",
+                    bvh.nodes, bvh.leaves, bvh.sah_cost, bvh.depth, bvh.bytes as f64 / 1e6, bvh.bytes_per_triangle, bvh.build_seconds
+                );
+                Ok(())
+            }
+        }
+        Command::Bench {
+            what:
+                BenchCommand::Trace {
+                    meshes,
+                    vs,
+                    rays,
+                    threads,
+                    size,
+                    runs,
+                    builds,
+                    json,
+                },
+        } => bench_trace(
+            &meshes,
+            vs.as_deref(),
+            &rays,
+            &threads,
+            size,
+            runs,
+            builds,
+            json,
+        ),
         Command::Demo { json } => {
             let infos: Vec<(&str, MeshInfo)> = rtmesh::scenes::NAMES
                 .iter()
@@ -195,4 +348,104 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
     }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn bench_trace(
+    meshes: &[String],
+    vs: Option<&str>,
+    kinds: &[RayKind],
+    thread_counts: &[usize],
+    size: (usize, usize),
+    runs: usize,
+    builds: usize,
+    json: bool,
+) -> Result<()> {
+    use rtmesh::trace::compare::Comparison;
+    let compare = |name: &str, scene: &Scene| -> Result<Vec<Comparison>> {
+        match vs {
+            #[cfg(feature = "embree")]
+            Some("embree") => rtmesh::trace::compare::compare::<rtmesh::embree::EmbreeScene>(name, scene, kinds, size, thread_counts, runs, builds)
+                .map_err(anyhow::Error::msg),
+            #[cfg(not(feature = "embree"))]
+            Some("embree") => anyhow::bail!("this rtmesh was built without Embree: rebuild with `--features embree` (needs libembree-dev)"),
+            Some(other) => anyhow::bail!("unknown tracer '{other}' for --vs (have: embree)"),
+            None => unreachable!("handled below"),
+        }
+    };
+    if !json {
+        match vs {
+            Some(other) => println!(
+                "{:<28} {:>8} {:>3} {:>9} {:>11} {:>11} {:>7} {:>9} {:>9} {:>8}",
+                "mesh",
+                "rays",
+                "thr",
+                "workload",
+                "rtmesh Mr/s",
+                format!("{other} Mr/s"),
+                "ratio",
+                "build rt",
+                "build ref",
+                "same"
+            ),
+            None => println!(
+                "{:<28} {:>8} {:>3} {:>9} {:>11} {:>8} {:>8} {:>9}",
+                "mesh", "rays", "thr", "workload", "Mrays/s", "box/ray", "tri/ray", "build s"
+            ),
+        }
+    }
+    for mesh in meshes {
+        let scene = load(mesh)?;
+        let name = Path::new(mesh)
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or(mesh);
+        if vs.is_none() {
+            for &threads in thread_counts {
+                workload::with_threads(threads, || -> Result<()> {
+                    let accel = SceneAccel::build(&scene, &BuildSettings::default());
+                    for &kind in kinds {
+                        let work = Workload::generate(kind, &scene, &accel, size.0, size.1, 1);
+                        let run = workload::measure(&accel, &work, runs);
+                        let threads = rayon::current_num_threads();
+                        if json {
+                            let mut value = serde_json::to_value(&run)?;
+                            value["mesh"] = serde_json::json!(name);
+                            value["workload"] = serde_json::json!(kind.name());
+                            value["threads"] = serde_json::json!(threads);
+                            value["build_seconds"] = serde_json::json!(accel.build_seconds);
+                            println!("{value}");
+                        } else {
+                            println!(
+                                "{name:<28} {:>8} {threads:>3} {:>9} {:>11.2} {:>8.2} {:>8.2} {:>9.3}",
+                                run.rays, kind.name(), run.mrays_per_s, run.box_tests_per_ray, run.tri_tests_per_ray, accel.build_seconds
+                            );
+                        }
+                    }
+                    Ok(())
+                })?;
+            }
+            continue;
+        }
+        for row in compare(name, &scene)? {
+            if json {
+                println!("{}", row.to_json());
+            } else {
+                println!(
+                    "{:<28} {:>8} {:>3} {:>9} {:>11.2} {:>11.2} {:>6.2}x {:>9.3} {:>9.3} {:>7.3}%",
+                    row.mesh,
+                    row.rays,
+                    row.threads,
+                    row.workload,
+                    row.rtmesh_mrays_per_s,
+                    row.other_mrays_per_s,
+                    row.ratio,
+                    row.rtmesh_build_seconds,
+                    row.other_build_seconds,
+                    100.0 * row.same_hits
+                );
+            }
+        }
+    }
+    Ok(())
 }

@@ -5,11 +5,15 @@
 //! finds edge adjacency; [`scenes`] makes procedural test scenes.
 #![warn(missing_docs)]
 
+pub mod bvh;
+#[cfg(feature = "embree")]
+pub mod embree;
 pub mod geom;
 pub mod io;
 pub mod mesh;
 pub mod random;
 pub mod scenes;
+pub mod trace;
 
 pub use geom::{Aabb, Ray};
 pub use mesh::{Instance, Material, Scene, TriMesh};

@@ -1,0 +1,295 @@
+//! Bounding volume hierarchies: a 4-wide BVH ([`Bvh4`]) built by binned SAH and shared by
+//! every leaf primitive (triangles now; pairs, strips, clusters and instances plug in
+//! through [`Primitive`]).
+//!
+//! Node layout ([`Node4`], 128 bytes, one 64-byte-aligned pair of cache lines): the six
+//! planes of the four child boxes stored structure-of-arrays (`[min x, min y, min z,
+//! max x, max y, max z]` × 4 lanes), so one node visit tests all four boxes with 4-wide
+//! SIMD, and four child references. A child reference is an inner node index, a leaf
+//! (bit 31 set, 4-bit primitive count and 27-bit first primitive), or [`EMPTY_CHILD`]
+//! whose box is inverted so that no ray ever enters it. Nodes are stored parent before
+//! children (depth first), which keeps a subtree together in memory and lets refit run
+//! as one reverse pass.
+
+mod build;
+
+pub use build::BuildSettings;
+
+use crate::geom::Aabb;
+use glam::Vec3;
+use serde::Serialize;
+
+/// A child slot holding nothing (its box is inverted).
+pub const EMPTY_CHILD: u32 = u32::MAX;
+const LEAF_BIT: u32 = 1 << 31;
+const LEAF_COUNT_SHIFT: u32 = 27;
+/// Most primitives one leaf can hold.
+pub const MAX_LEAF_SIZE: usize = 15;
+/// Most primitives a BVH can hold (27-bit first index).
+pub const MAX_PRIMITIVES: usize = 1 << LEAF_COUNT_SHIFT;
+
+/// What a BVH leaf can hold: anything with a box. Its centroid places it in the build.
+pub trait Primitive: Send + Sync {
+    /// Bounding box.
+    fn bounds(&self) -> Aabb;
+}
+
+/// A reference to a child: inner node, leaf range, or empty.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Child {
+    /// Index of an inner node.
+    Inner(u32),
+    /// Primitives `first .. first + count`.
+    Leaf {
+        /// First primitive.
+        first: u32,
+        /// Number of primitives (1..=15).
+        count: u32,
+    },
+    /// No child.
+    Empty,
+}
+
+impl Child {
+    /// Pack into the 32-bit reference stored in nodes.
+    #[inline]
+    pub fn encode(self) -> u32 {
+        match self {
+            Child::Inner(i) => i,
+            Child::Leaf { first, count } => LEAF_BIT | (count << LEAF_COUNT_SHIFT) | first,
+            Child::Empty => EMPTY_CHILD,
+        }
+    }
+
+    /// Unpack a stored reference.
+    #[inline(always)]
+    pub fn decode(reference: u32) -> Self {
+        if reference == EMPTY_CHILD {
+            Child::Empty
+        } else if reference & LEAF_BIT != 0 {
+            Child::Leaf {
+                first: reference & ((1 << LEAF_COUNT_SHIFT) - 1),
+                count: (reference >> LEAF_COUNT_SHIFT) & 0xF,
+            }
+        } else {
+            Child::Inner(reference)
+        }
+    }
+}
+
+/// One 4-wide node: four child boxes, structure of arrays, and four child references.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Node4 {
+    /// `planes[k][lane]`: k = 0..3 min x, y, z; k = 3..6 max x, y, z of child `lane`.
+    pub planes: [[f32; 4]; 6],
+    /// Encoded child references (see [`Child`]).
+    pub children: [u32; 4],
+}
+
+impl Node4 {
+    /// A node with four empty (inverted) children.
+    pub const EMPTY: Node4 = Node4 {
+        planes: [
+            [f32::INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+            [f32::NEG_INFINITY; 4],
+        ],
+        children: [EMPTY_CHILD; 4],
+    };
+
+    /// Box of child `lane`.
+    pub fn child_bounds(&self, lane: usize) -> Aabb {
+        let p = &self.planes;
+        Aabb {
+            min: Vec3::new(p[0][lane], p[1][lane], p[2][lane]),
+            max: Vec3::new(p[3][lane], p[4][lane], p[5][lane]),
+        }
+    }
+
+    /// Set the box of child `lane`.
+    pub fn set_child_bounds(&mut self, lane: usize, b: Aabb) {
+        for axis in 0..3 {
+            self.planes[axis][lane] = b.min[axis];
+            self.planes[axis + 3][lane] = b.max[axis];
+        }
+    }
+
+    /// Union of the children's boxes.
+    pub fn bounds(&self) -> Aabb {
+        (0..4).fold(Aabb::EMPTY, |b, lane| b.union(self.child_bounds(lane)))
+    }
+}
+
+/// Figures of a built BVH.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct BvhStats {
+    /// Inner nodes (4-wide).
+    pub nodes: usize,
+    /// Leaves.
+    pub leaves: usize,
+    /// Primitives referenced by leaves.
+    pub primitives: usize,
+    /// SAH cost: Σ over inner nodes of A(node)/A(root)·C_node + Σ over leaves of
+    /// A(leaf)/A(root)·count·C_primitive, with C_node = C_primitive = 1.
+    pub sah_cost: f32,
+    /// Bytes of nodes.
+    pub node_bytes: usize,
+    /// Deepest leaf (root = depth 1).
+    pub depth: usize,
+    /// Seconds the build took (wall clock).
+    pub build_seconds: f64,
+}
+
+/// A 4-wide BVH over primitives stored in leaf order.
+#[derive(Clone, Debug)]
+pub struct Bvh4<P> {
+    /// Nodes, parent before children; node 0 is the root when `root` is inner.
+    pub nodes: Vec<Node4>,
+    /// The root reference (inner node 0, a single leaf, or empty).
+    pub root: u32,
+    /// Primitives in leaf order.
+    pub primitives: Vec<P>,
+    /// Seconds the build took.
+    pub build_seconds: f64,
+}
+
+impl<P: Primitive> Bvh4<P> {
+    /// Build with binned SAH (see [`BuildSettings`]). Primitives with an empty or
+    /// non-finite box (NaN triangles: DXR's inactive ones) are left out.
+    pub fn build(primitives: Vec<P>, settings: &BuildSettings) -> Self {
+        let start = std::time::Instant::now();
+        let (nodes, root, order) = build::build(&primitives, settings);
+        let mut slots: Vec<Option<P>> = primitives.into_iter().map(Some).collect();
+        let primitives = order
+            .iter()
+            .map(|&i| slots[i as usize].take().expect("each primitive once"))
+            .collect();
+        Self {
+            nodes,
+            root,
+            primitives,
+            build_seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// Box of the whole tree.
+    pub fn bounds(&self) -> Aabb {
+        match Child::decode(self.root) {
+            Child::Inner(i) => self.nodes[i as usize].bounds(),
+            Child::Leaf { first, count } => self.leaf_bounds(first, count),
+            Child::Empty => Aabb::EMPTY,
+        }
+    }
+
+    fn leaf_bounds(&self, first: u32, count: u32) -> Aabb {
+        self.primitives[first as usize..(first + count) as usize]
+            .iter()
+            .fold(Aabb::EMPTY, |b, p| b.union(p.bounds()))
+    }
+
+    /// Recompute every box from the primitives (after they moved), keeping the topology:
+    /// one reverse pass over the nodes, O(nodes + primitives).
+    pub fn refit(&mut self) {
+        for n in (0..self.nodes.len()).rev() {
+            for lane in 0..4 {
+                let b = match Child::decode(self.nodes[n].children[lane]) {
+                    Child::Inner(i) => self.nodes[i as usize].bounds(),
+                    Child::Leaf { first, count } => self.leaf_bounds(first, count),
+                    Child::Empty => continue,
+                };
+                self.nodes[n].set_child_bounds(lane, b);
+            }
+        }
+    }
+
+    /// Node count, leaves, SAH cost, bytes and depth.
+    pub fn stats(&self) -> BvhStats {
+        let root_area = self.bounds().half_area().max(f32::MIN_POSITIVE);
+        let mut stats = BvhStats {
+            nodes: self.nodes.len(),
+            node_bytes: self.nodes.len() * std::mem::size_of::<Node4>(),
+            primitives: self.primitives.len(),
+            build_seconds: self.build_seconds,
+            ..BvhStats::default()
+        };
+        let mut sah = 0.0f64;
+        let mut stack = vec![(self.root, self.bounds(), 1usize)];
+        while let Some((reference, bounds, depth)) = stack.pop() {
+            let relative = (bounds.half_area() / root_area) as f64;
+            stats.depth = stats.depth.max(depth);
+            match Child::decode(reference) {
+                Child::Inner(i) => {
+                    sah += relative;
+                    let node = &self.nodes[i as usize];
+                    for lane in 0..4 {
+                        stack.push((node.children[lane], node.child_bounds(lane), depth + 1));
+                    }
+                }
+                Child::Leaf { count, .. } => {
+                    stats.leaves += 1;
+                    sah += relative * count as f64;
+                }
+                Child::Empty => {}
+            }
+        }
+        stats.sah_cost = sah as f32;
+        stats
+    }
+
+    /// Check every invariant: child boxes contain their subtrees' primitives, nodes come
+    /// after their parents, every primitive is in exactly one leaf, leaves are 1..=15.
+    /// Returns a description of the first violation.
+    pub fn validate(&self) -> Result<(), String> {
+        let mut seen = vec![false; self.primitives.len()];
+        let mut node_seen = vec![false; self.nodes.len()];
+        let mut stack = vec![(self.root, None::<Aabb>, None::<u32>)];
+        while let Some((reference, bounds, parent)) = stack.pop() {
+            let subtree = match Child::decode(reference) {
+                Child::Empty => continue,
+                Child::Inner(i) => {
+                    if i as usize >= self.nodes.len() || node_seen[i as usize] {
+                        return Err(format!("node {i} out of range or reached twice"));
+                    }
+                    if parent.is_some_and(|p| p >= i) {
+                        return Err(format!("node {i} stored before its parent"));
+                    }
+                    node_seen[i as usize] = true;
+                    let node = &self.nodes[i as usize];
+                    for lane in 0..4 {
+                        stack.push((node.children[lane], Some(node.child_bounds(lane)), Some(i)));
+                    }
+                    node.bounds()
+                }
+                Child::Leaf { first, count } => {
+                    if count == 0 || (first + count) as usize > self.primitives.len() {
+                        return Err(format!("leaf {first}+{count} is empty or out of range"));
+                    }
+                    for p in first..first + count {
+                        if std::mem::replace(&mut seen[p as usize], true) {
+                            return Err(format!("primitive {p} in two leaves"));
+                        }
+                    }
+                    self.leaf_bounds(first, count)
+                }
+            };
+            if let Some(b) = bounds {
+                if b.union(subtree) != b {
+                    return Err(format!(
+                        "child box {b:?} does not contain its subtree {subtree:?}"
+                    ));
+                }
+            }
+        }
+        if let Some(p) = seen.iter().position(|&s| !s) {
+            return Err(format!("primitive {p} in no leaf"));
+        }
+        if let Some(n) = node_seen.iter().position(|&s| !s) {
+            return Err(format!("node {n} unreachable"));
+        }
+        Ok(())
+    }
+}

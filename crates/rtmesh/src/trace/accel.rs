@@ -1,0 +1,266 @@
+//! A scene ready to trace: one BVH per mesh (BLAS) and, when the scene has more than
+//! one placement or a transformed one, a top-level BVH over the instances (TLAS), as
+//! DXR and Vulkan trace them. A TLAS leaf moves the ray into the instance's object
+//! space (the direction is not renormalised, so `t` means the same in both spaces) and
+//! traverses that mesh's BVH. A scene of one untransformed mesh skips the TLAS.
+
+use super::traverse::{any_hit, closest_hit};
+use super::{Counters, Hit, RayQuery, Tracer, Triangle};
+use crate::bvh::{BuildSettings, Bvh4, BvhStats, Primitive};
+use crate::geom::{Aabb, Ray};
+use crate::mesh::{Scene, TriMesh};
+use glam::Affine3A;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// A TLAS leaf: one placement of a mesh.
+#[derive(Clone, Debug)]
+pub struct InstanceLeaf {
+    /// World-space box of the placed mesh.
+    pub bounds: Aabb,
+    /// World-to-object transform.
+    pub world_to_object: Affine3A,
+    /// Instance id.
+    pub instance: u32,
+    /// Mesh id (index of its BLAS).
+    pub mesh: u32,
+}
+
+impl Primitive for InstanceLeaf {
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+}
+
+/// Figures of a built scene: summed over BLASes, plus the TLAS.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct AccelStats {
+    /// 4-wide nodes, all levels.
+    pub nodes: usize,
+    /// Leaves, all levels.
+    pub leaves: usize,
+    /// SAH cost of the BLAS of a single-mesh scene, or of the TLAS otherwise.
+    pub sah_cost: f32,
+    /// Seconds to build all levels (wall clock).
+    pub build_seconds: f64,
+    /// Bytes of nodes and leaf primitives, all levels.
+    pub bytes: usize,
+    /// `bytes` divided by the instanced triangle count.
+    pub bytes_per_triangle: f64,
+    /// Deepest leaf over all levels.
+    pub depth: usize,
+}
+
+/// The traceable form of a [`Scene`].
+#[derive(Clone, Debug)]
+pub struct SceneAccel {
+    /// One BVH per mesh, over its valid triangles.
+    pub blas: Vec<Bvh4<Triangle>>,
+    /// BVH over instances, absent for a scene of one untransformed mesh.
+    pub tlas: Option<Bvh4<InstanceLeaf>>,
+    /// Seconds the whole build took.
+    pub build_seconds: f64,
+    triangle_count: usize,
+}
+
+/// The tracer's triangles of `mesh` (NaN, infinite and out-of-range triangles are left
+/// out by the builder, which skips empty or non-finite boxes).
+pub fn mesh_triangles(mesh: &TriMesh) -> Vec<Triangle> {
+    let n = mesh.positions.len();
+    (0..mesh.triangle_count())
+        .filter(|&t| mesh.triangles[t].iter().all(|&v| (v as usize) < n))
+        .map(|t| Triangle::new(mesh.corners(t), t as u32))
+        .collect()
+}
+
+impl SceneAccel {
+    /// Build every level with `settings`.
+    pub fn build(scene: &Scene, settings: &BuildSettings) -> Self {
+        let start = std::time::Instant::now();
+        let blas: Vec<Bvh4<Triangle>> = scene
+            .meshes
+            .par_iter()
+            .map(|mesh| Bvh4::build(mesh_triangles(mesh), settings))
+            .collect();
+        let single =
+            scene.instances.len() == 1 && scene.instances[0].transform == Affine3A::IDENTITY;
+        let tlas = (!single).then(|| {
+            let leaves = scene
+                .instances
+                .iter()
+                .enumerate()
+                .map(|(i, inst)| InstanceLeaf {
+                    bounds: blas[inst.mesh].bounds().transformed(&inst.transform),
+                    world_to_object: inst.transform.inverse(),
+                    instance: i as u32,
+                    mesh: inst.mesh as u32,
+                })
+                .collect();
+            Bvh4::build(leaves, settings)
+        });
+        Self {
+            blas,
+            tlas,
+            build_seconds: start.elapsed().as_secs_f64(),
+            triangle_count: scene.instanced_triangle_count(),
+        }
+    }
+
+    /// Nodes, leaves, SAH cost, bytes, build time.
+    pub fn stats(&self) -> AccelStats {
+        let blas_stats: Vec<BvhStats> = self.blas.iter().map(Bvh4::stats).collect();
+        let tlas_stats = self.tlas.as_ref().map(Bvh4::stats);
+        let primitive_bytes: usize = self
+            .blas
+            .iter()
+            .map(|b| b.primitives.len() * std::mem::size_of::<Triangle>())
+            .sum::<usize>()
+            + self.tlas.as_ref().map_or(0, |t| {
+                t.primitives.len() * std::mem::size_of::<InstanceLeaf>()
+            });
+        let all = blas_stats.iter().chain(tlas_stats.iter());
+        let bytes = all.clone().map(|s| s.node_bytes).sum::<usize>() + primitive_bytes;
+        AccelStats {
+            nodes: all.clone().map(|s| s.nodes).sum(),
+            leaves: all.clone().map(|s| s.leaves).sum(),
+            sah_cost: tlas_stats
+                .as_ref()
+                .or(blas_stats.first())
+                .map_or(0.0, |s| s.sah_cost),
+            build_seconds: self.build_seconds,
+            bytes,
+            bytes_per_triangle: bytes as f64 / self.triangle_count.max(1) as f64,
+            depth: all.map(|s| s.depth).max().unwrap_or(0),
+        }
+    }
+}
+
+impl Tracer for SceneAccel {
+    /// Closest hit of `ray`, counting work into `counters`.
+    #[inline]
+    fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+        let query = RayQuery::new(ray);
+        let mut hit = Hit::MISS;
+        hit.t = ray.t_max;
+        match &self.tlas {
+            None => {
+                if let Some(bvh) = self.blas.first() {
+                    if intersect_blas(bvh, &query, &mut hit, counters) {
+                        hit.instance = 0;
+                        hit.geometry = 0;
+                    }
+                }
+            }
+            Some(tlas) => {
+                closest_hit(
+                    tlas,
+                    &query,
+                    &mut hit.t.clone(),
+                    counters,
+                    |instances, t_max, counters| {
+                        let mut found = false;
+                        for instance in instances {
+                            let local = transform_query(&query, &instance.world_to_object);
+                            if intersect_blas(
+                                &self.blas[instance.mesh as usize],
+                                &local,
+                                &mut hit,
+                                counters,
+                            ) {
+                                hit.instance = instance.instance;
+                                hit.geometry = instance.mesh;
+                                *t_max = hit.t;
+                                found = true;
+                            }
+                        }
+                        found
+                    },
+                );
+            }
+        }
+        if !hit.is_hit() {
+            hit.t = f32::INFINITY;
+        }
+        hit
+    }
+
+    /// Whether anything blocks `ray` within `(t_min, t_max)`.
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        let query = RayQuery::new(ray);
+        match &self.tlas {
+            None => self
+                .blas
+                .first()
+                .is_some_and(|bvh| occluded_blas(bvh, &query, ray.t_max, counters)),
+            Some(tlas) => any_hit(
+                tlas,
+                &query,
+                ray.t_max,
+                counters,
+                |instances, t_max, counters| {
+                    instances.iter().any(|instance| {
+                        let local = transform_query(&query, &instance.world_to_object);
+                        occluded_blas(&self.blas[instance.mesh as usize], &local, t_max, counters)
+                    })
+                },
+            ),
+        }
+    }
+}
+
+#[inline(always)]
+fn transform_query(query: &RayQuery, world_to_object: &Affine3A) -> RayQuery {
+    RayQuery::new(&Ray {
+        origin: world_to_object.transform_point3(query.origin),
+        direction: world_to_object.transform_vector3(query.direction),
+        t_min: query.t_min,
+        t_max: f32::INFINITY,
+    })
+}
+
+#[inline(always)]
+fn intersect_blas<C: Counters>(
+    bvh: &Bvh4<Triangle>,
+    query: &RayQuery,
+    hit: &mut Hit,
+    counters: &mut C,
+) -> bool {
+    let mut t_max = hit.t;
+    closest_hit(
+        bvh,
+        query,
+        &mut t_max,
+        counters,
+        |triangles, t_max, counters| {
+            counters.triangle_tests(triangles.len() as u32);
+            let mut found = false;
+            for triangle in triangles {
+                if let Some((t, u, v)) = triangle.intersect(query, *t_max) {
+                    *t_max = t;
+                    hit.t = t;
+                    hit.u = u;
+                    hit.v = v;
+                    hit.triangle = triangle.id;
+                    found = true;
+                }
+            }
+            found
+        },
+    )
+}
+
+#[inline(always)]
+fn occluded_blas<C: Counters>(
+    bvh: &Bvh4<Triangle>,
+    query: &RayQuery,
+    t_max: f32,
+    counters: &mut C,
+) -> bool {
+    any_hit(bvh, query, t_max, counters, |triangles, t_max, counters| {
+        triangles.iter().any(|triangle| {
+            counters.triangle_tests(1);
+            triangle.intersect(query, t_max).is_some()
+        })
+    })
+}

@@ -1,0 +1,402 @@
+//! Deterministic ray workloads, as DESIGN.md defines them, and the runners that trace
+//! them on all threads of the current rayon pool.
+//!
+//! - Camera: looks at the bounds' centre from the (1, 1, 1) diagonal direction, at 1.2 ×
+//!   the bounds' diagonal, 45° vertical field of view, +Y up.
+//! - `primary`: one ray per pixel centre, in 8×8 tiles (tile-major order: coherent
+//!   rays run together and threads take whole tiles).
+//! - `diffuse`: from each primary hit, one cosine-weighted bounce about the geometric
+//!   normal (turned to face the camera), seeded per pixel.
+//! - `shadow`: from each primary hit, an occlusion ray toward a point light at
+//!   `centre + diagonal · (0.3, 1.0, 0.5)`, stopping just short of it.
+//!
+//! Secondary rays start `1e-4 ·` diagonal off the surface. Pixels whose primary ray
+//! misses have no secondary ray.
+
+use super::{Counters, Hit, NoCounters, RayCounters, SceneAccel, Tracer};
+use crate::geom::{Aabb, Ray};
+use crate::mesh::Scene;
+use crate::random::SplitMix64;
+use glam::Vec3;
+use rayon::prelude::*;
+use std::str::FromStr;
+
+/// Side of the square pixel tiles rays are generated and traced in.
+pub const TILE: usize = 8;
+/// Rays per parallel work item (one tile).
+const CHUNK: usize = TILE * TILE;
+
+/// Which rays to trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKind {
+    /// Camera rays, closest hit.
+    Primary,
+    /// One diffuse bounce per primary hit, closest hit.
+    Diffuse,
+    /// Occlusion toward a point light per primary hit, any hit.
+    Shadow,
+}
+
+impl RayKind {
+    /// The name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Primary => "primary",
+            RayKind::Diffuse => "diffuse",
+            RayKind::Shadow => "shadow",
+        }
+    }
+}
+
+impl FromStr for RayKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "primary" => Ok(Self::Primary),
+            "diffuse" => Ok(Self::Diffuse),
+            "shadow" => Ok(Self::Shadow),
+            _ => Err(format!("unknown ray kind '{s}' (primary, diffuse, shadow)")),
+        }
+    }
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: Vec3,
+    /// Unit view direction.
+    pub forward: Vec3,
+    /// Unit right vector scaled by tan(fov/2)·aspect.
+    pub right: Vec3,
+    /// Unit up vector scaled by tan(fov/2).
+    pub up: Vec3,
+}
+
+impl Camera {
+    /// The default camera for `bounds` and an image of `width` × `height`.
+    pub fn default_for(bounds: &Aabb, width: usize, height: usize) -> Self {
+        let center = if bounds.is_empty() {
+            Vec3::ZERO
+        } else {
+            bounds.center()
+        };
+        let distance = 1.2 * bounds.diagonal_length().max(1e-6);
+        Self::look_at(
+            center + Vec3::ONE.normalize() * distance,
+            center,
+            45.0,
+            width,
+            height,
+        )
+    }
+
+    /// A camera at `eye` looking at `target`, `fov_degrees` vertical field of view.
+    pub fn look_at(eye: Vec3, target: Vec3, fov_degrees: f32, width: usize, height: usize) -> Self {
+        let forward = (target - eye).normalize();
+        let right = forward.cross(Vec3::Y).normalize();
+        let up = right.cross(forward);
+        let tan = (fov_degrees.to_radians() * 0.5).tan();
+        let aspect = width as f32 / height.max(1) as f32;
+        Self {
+            eye,
+            forward,
+            right: right * tan * aspect,
+            up: up * tan,
+        }
+    }
+
+    /// The ray through pixel `(x, y)` (row 0 at the top) of a `width` × `height` image.
+    pub fn ray(&self, x: usize, y: usize, width: usize, height: usize) -> Ray {
+        let sx = 2.0 * (x as f32 + 0.5) / width as f32 - 1.0;
+        let sy = 1.0 - 2.0 * (y as f32 + 0.5) / height as f32;
+        Ray::new(
+            self.eye,
+            (self.forward + self.right * sx + self.up * sy).normalize(),
+        )
+    }
+}
+
+/// Rays to trace, with the pixel each belongs to.
+#[derive(Clone, Debug)]
+pub struct Workload {
+    /// Which rays these are.
+    pub kind: RayKind,
+    /// Image width.
+    pub width: usize,
+    /// Image height.
+    pub height: usize,
+    /// The rays, in tile order.
+    pub rays: Vec<Ray>,
+    /// `pixels[i]` = `y · width + x` of ray `i`.
+    pub pixels: Vec<u32>,
+}
+
+/// Pixel indices of a `width` × `height` image in 8×8 tile order.
+fn tile_order(width: usize, height: usize) -> Vec<u32> {
+    let mut pixels = Vec::with_capacity(width * height);
+    for ty in (0..height).step_by(TILE) {
+        for tx in (0..width).step_by(TILE) {
+            for y in ty..(ty + TILE).min(height) {
+                for x in tx..(tx + TILE).min(width) {
+                    pixels.push((y * width + x) as u32);
+                }
+            }
+        }
+    }
+    pixels
+}
+
+impl Workload {
+    /// Camera rays for every pixel.
+    pub fn primary(camera: &Camera, width: usize, height: usize) -> Self {
+        let pixels = tile_order(width, height);
+        let rays = pixels
+            .iter()
+            .map(|&p| camera.ray(p as usize % width, p as usize / width, width, height))
+            .collect();
+        Self {
+            kind: RayKind::Primary,
+            width,
+            height,
+            rays,
+            pixels,
+        }
+    }
+
+    /// The workload of `kind` for `scene` seen by the default camera (secondary rays
+    /// start from primary hits found with `accel`).
+    pub fn generate(
+        kind: RayKind,
+        scene: &Scene,
+        accel: &SceneAccel,
+        width: usize,
+        height: usize,
+        seed: u64,
+    ) -> Self {
+        let bounds = scene.bounds();
+        let primary = Self::primary(&Camera::default_for(&bounds, width, height), width, height);
+        if kind == RayKind::Primary {
+            return primary;
+        }
+        let hits = trace_closest::<NoCounters>(accel, &primary.rays).0;
+        let diagonal = bounds.diagonal_length();
+        let offset = 1e-4 * diagonal;
+        let light = bounds.center() + diagonal * Vec3::new(0.3, 1.0, 0.5);
+        let secondary: Vec<(Ray, u32)> = (0..hits.len())
+            .into_par_iter()
+            .filter(|&i| hits[i].is_hit())
+            .map(|i| {
+                let (ray, hit) = (&primary.rays[i], &hits[i]);
+                let normal = geometric_normal(scene, hit);
+                let normal = if normal.dot(ray.direction) > 0.0 {
+                    -normal
+                } else {
+                    normal
+                };
+                let origin = ray.at(hit.t) + normal * offset;
+                let pixel = primary.pixels[i];
+                let ray = match kind {
+                    RayKind::Shadow => Ray {
+                        origin,
+                        direction: light - origin,
+                        t_min: 0.0,
+                        t_max: 1.0 - 1e-4,
+                    },
+                    _ => {
+                        let mut rng = SplitMix64::new(
+                            seed ^ (pixel as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15),
+                        );
+                        Ray::new(
+                            origin,
+                            cosine_direction(normal, rng.next_f32(), rng.next_f32()),
+                        )
+                    }
+                };
+                (ray, pixel)
+            })
+            .collect();
+        let (rays, pixels) = secondary.into_iter().unzip();
+        Self {
+            kind,
+            width,
+            height,
+            rays,
+            pixels,
+        }
+    }
+}
+
+/// Unit geometric normal of the hit triangle in world space.
+pub fn geometric_normal(scene: &Scene, hit: &Hit) -> Vec3 {
+    let instance = &scene.instances[hit.instance as usize];
+    let [a, b, c] = scene.meshes[instance.mesh]
+        .corners(hit.triangle as usize)
+        .map(|p| instance.transform.transform_point3(p));
+    (b - a).cross(c - a).normalize_or(Vec3::Y)
+}
+
+/// A cosine-weighted direction about the unit `normal` from two uniform numbers.
+fn cosine_direction(normal: Vec3, r1: f32, r2: f32) -> Vec3 {
+    let (tangent, bitangent) = normal.any_orthonormal_pair();
+    let phi = std::f32::consts::TAU * r1;
+    let radius = r2.sqrt();
+    (tangent * (radius * phi.cos())
+        + bitangent * (radius * phi.sin())
+        + normal * (1.0 - r2).max(0.0).sqrt())
+    .normalize()
+}
+
+/// Trace closest hits of `rays` on the current rayon pool; returns hits and per-ray
+/// counters (zero-sized and free for [`NoCounters`]).
+pub fn trace_closest<C: Counters + Copy>(tracer: &impl Tracer, rays: &[Ray]) -> (Vec<Hit>, Vec<C>) {
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut counters = vec![C::default(); rays.len()];
+    rays.par_chunks(CHUNK)
+        .zip(hits.par_chunks_mut(CHUNK))
+        .zip(counters.par_chunks_mut(CHUNK))
+        .for_each(|((rays, hits), counters)| {
+            for ((ray, hit), counter) in rays.iter().zip(hits).zip(counters) {
+                *hit = tracer.intersect(ray, counter);
+            }
+        });
+    (hits, counters)
+}
+
+/// Trace occlusion of `rays` on the current rayon pool.
+pub fn trace_occluded<C: Counters + Copy>(
+    tracer: &impl Tracer,
+    rays: &[Ray],
+) -> (Vec<bool>, Vec<C>) {
+    let mut occluded = vec![false; rays.len()];
+    let mut counters = vec![C::default(); rays.len()];
+    rays.par_chunks(CHUNK)
+        .zip(occluded.par_chunks_mut(CHUNK))
+        .zip(counters.par_chunks_mut(CHUNK))
+        .for_each(|((rays, out), counters)| {
+            for ((ray, o), counter) in rays.iter().zip(out).zip(counters) {
+                *o = tracer.occluded(ray, counter);
+            }
+        });
+    (occluded, counters)
+}
+
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// Order-independent checksum of which input triangle each ray hit: equal for two
+/// tracers (or leaf types) exactly when they hit the same (instance, triangle) per ray.
+pub fn hit_checksum(hits: &[Hit]) -> u64 {
+    hits.iter()
+        .enumerate()
+        .filter(|(_, h)| h.is_hit())
+        .fold(0u64, |sum, (i, h)| {
+            sum.wrapping_add(mix((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                ^ ((h.instance as u64) << 32 | h.triangle as u64)))
+        })
+}
+
+/// Checksum of which rays are occluded.
+pub fn occlusion_checksum(occluded: &[bool]) -> u64 {
+    occluded
+        .iter()
+        .enumerate()
+        .filter(|(_, &o)| o)
+        .fold(0u64, |sum, (i, _)| {
+            sum.wrapping_add(mix((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5))
+        })
+}
+
+/// The result of tracing a workload once, timed, and once more, counted.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct TraceRun {
+    /// Rays traced.
+    pub rays: usize,
+    /// Median wall-clock seconds of the timed runs (counters off).
+    pub seconds: f64,
+    /// Millions of rays per second at the median.
+    pub mrays_per_s: f64,
+    /// Mean box tests per ray (from the counted run).
+    pub box_tests_per_ray: f64,
+    /// Mean triangle tests per ray.
+    pub tri_tests_per_ray: f64,
+    /// Mean inner nodes visited per ray.
+    pub nodes_per_ray: f64,
+    /// Rays that hit (or are occluded).
+    pub hits: usize,
+    /// [`hit_checksum`] or [`occlusion_checksum`].
+    pub hit_checksum: u64,
+    /// Seconds of every timed run.
+    pub all_seconds: Vec<f64>,
+}
+
+/// Median of a non-empty list.
+pub fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        return 0.0;
+    }
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Trace `workload` `runs` times with counters off (timed) and once with counters on,
+/// on the current rayon pool.
+pub fn measure(tracer: &impl Tracer, workload: &Workload, runs: usize) -> TraceRun {
+    let rays = &workload.rays;
+    let shadow = workload.kind == RayKind::Shadow;
+    let mut all_seconds = Vec::with_capacity(runs);
+    let mut checksum = 0;
+    let mut hits = 0;
+    for _ in 0..runs.max(1) {
+        let start = std::time::Instant::now();
+        if shadow {
+            let (occluded, _) = trace_occluded::<NoCounters>(tracer, rays);
+            all_seconds.push(start.elapsed().as_secs_f64());
+            checksum = occlusion_checksum(&occluded);
+            hits = occluded.iter().filter(|&&o| o).count();
+        } else {
+            let (found, _) = trace_closest::<NoCounters>(tracer, rays);
+            all_seconds.push(start.elapsed().as_secs_f64());
+            checksum = hit_checksum(&found);
+            hits = found.iter().filter(|h| h.is_hit()).count();
+        }
+    }
+    let counters: Vec<RayCounters> = if shadow {
+        trace_occluded::<RayCounters>(tracer, rays).1
+    } else {
+        trace_closest::<RayCounters>(tracer, rays).1
+    };
+    let mut total = RayCounters::default();
+    counters.iter().for_each(|c| total.merge(c));
+    let n = rays.len().max(1) as f64;
+    let seconds = median(&all_seconds);
+    TraceRun {
+        rays: rays.len(),
+        seconds,
+        mrays_per_s: rays.len() as f64 / seconds.max(1e-12) / 1e6,
+        box_tests_per_ray: total.box_tests as f64 / n,
+        tri_tests_per_ray: total.triangle_tests as f64 / n,
+        nodes_per_ray: total.nodes_visited as f64 / n,
+        hits,
+        hit_checksum: checksum,
+        all_seconds,
+    }
+}
+
+/// Run `f` on a rayon pool of `threads` threads (0 = all cores).
+pub fn with_threads<R: Send>(threads: usize, f: impl FnOnce() -> R + Send) -> R {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .expect("thread pool")
+        .install(f)
+}
