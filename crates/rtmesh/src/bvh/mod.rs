@@ -1,11 +1,14 @@
-//! Bounding volume hierarchies: a 4-wide BVH ([`Bvh4`]) built by binned SAH and shared by
-//! every leaf primitive (triangles now; pairs, strips, clusters and instances plug in
-//! through [`Primitive`]).
+//! Bounding volume hierarchies: an 8-wide BVH ([`Bvh`], like Embree's BVH8) built by
+//! binned SAH and shared by every leaf primitive (triangles now; pairs, strips, clusters
+//! and instances plug in through [`Primitive`]).
 //!
-//! Node layout ([`Node4`], 128 bytes, one 64-byte-aligned pair of cache lines): the six
-//! planes of the four child boxes stored structure-of-arrays (`[min x, min y, min z,
-//! max x, max y, max z]` × 4 lanes), so one node visit tests all four boxes with 4-wide
-//! SIMD, and four child references. A child reference is an inner node index, a leaf
+//! Node layout ([`BvhNode`], 256 bytes, four 64-byte cache lines): the six planes of the
+//! eight child boxes stored structure-of-arrays (`[min x, min y, min z, max x, max y,
+//! max z]` × 8 lanes), so one node visit tests all eight boxes with 8-wide SIMD (two
+//! independent 4-wide halves on SSE2, one AVX register where available), and eight
+//! child references. Eight children rather than four halve the depth: the traversal's
+//! cost is the latency of each node test, and two halves in parallel cost about what
+//! one does. A child reference is an inner node index, a leaf
 //! (bit 31 set, 4-bit primitive count and 27-bit first primitive), or [`EMPTY_CHILD`]
 //! whose box is inverted so that no ray ever enters it. Nodes are stored parent before
 //! children (depth first), which keeps a subtree together in memory and lets refit run
@@ -77,28 +80,31 @@ impl Child {
     }
 }
 
-/// One 4-wide node: four child boxes, structure of arrays, and four child references.
+/// Children per node.
+pub const WIDTH: usize = 8;
+
+/// One node: eight child boxes, structure of arrays, and eight child references.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
-pub struct Node4 {
+pub struct BvhNode {
     /// `planes[k][lane]`: k = 0..3 min x, y, z; k = 3..6 max x, y, z of child `lane`.
-    pub planes: [[f32; 4]; 6],
+    pub planes: [[f32; WIDTH]; 6],
     /// Encoded child references (see [`Child`]).
-    pub children: [u32; 4],
+    pub children: [u32; WIDTH],
 }
 
-impl Node4 {
-    /// A node with four empty (inverted) children.
-    pub const EMPTY: Node4 = Node4 {
+impl BvhNode {
+    /// A node with eight empty (inverted) children.
+    pub const EMPTY: BvhNode = BvhNode {
         planes: [
-            [f32::INFINITY; 4],
-            [f32::INFINITY; 4],
-            [f32::INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
-            [f32::NEG_INFINITY; 4],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
         ],
-        children: [EMPTY_CHILD; 4],
+        children: [EMPTY_CHILD; WIDTH],
     };
 
     /// Box of child `lane`.
@@ -120,14 +126,14 @@ impl Node4 {
 
     /// Union of the children's boxes.
     pub fn bounds(&self) -> Aabb {
-        (0..4).fold(Aabb::EMPTY, |b, lane| b.union(self.child_bounds(lane)))
+        (0..WIDTH).fold(Aabb::EMPTY, |b, lane| b.union(self.child_bounds(lane)))
     }
 }
 
 /// Figures of a built BVH.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct BvhStats {
-    /// Inner nodes (4-wide).
+    /// Inner nodes (8-wide).
     pub nodes: usize,
     /// Leaves.
     pub leaves: usize,
@@ -144,11 +150,11 @@ pub struct BvhStats {
     pub build_seconds: f64,
 }
 
-/// A 4-wide BVH over primitives stored in leaf order.
+/// An 8-wide BVH over primitives stored in leaf order.
 #[derive(Clone, Debug)]
-pub struct Bvh4<P> {
+pub struct Bvh<P> {
     /// Nodes, parent before children; node 0 is the root when `root` is inner.
-    pub nodes: Vec<Node4>,
+    pub nodes: Vec<BvhNode>,
     /// The root reference (inner node 0, a single leaf, or empty).
     pub root: u32,
     /// Primitives in leaf order.
@@ -157,7 +163,7 @@ pub struct Bvh4<P> {
     pub build_seconds: f64,
 }
 
-impl<P: Primitive> Bvh4<P> {
+impl<P: Primitive> Bvh<P> {
     /// Build with binned SAH (see [`BuildSettings`]). Primitives with an empty or
     /// non-finite box (NaN triangles: DXR's inactive ones) are left out.
     pub fn build(primitives: Vec<P>, settings: &BuildSettings) -> Self {
@@ -173,6 +179,39 @@ impl<P: Primitive> Bvh4<P> {
             root,
             primitives,
             build_seconds: start.elapsed().as_secs_f64(),
+        }
+    }
+
+    /// The same tree with each leaf's primitives turned into one primitive of another
+    /// kind by `combine` (e.g. up to four triangles into one SIMD block). Leaves of the
+    /// result hold exactly one primitive each, numbered in node order.
+    pub fn map_leaves<Q>(&self, combine: impl Fn(&[P]) -> Q) -> Bvh<Q> {
+        let mut primitives = Vec::new();
+        let mut remap = |reference: u32| match Child::decode(reference) {
+            Child::Leaf { first, count } => {
+                primitives.push(combine(
+                    &self.primitives[first as usize..(first + count) as usize],
+                ));
+                Child::Leaf {
+                    first: primitives.len() as u32 - 1,
+                    count: 1,
+                }
+                .encode()
+            }
+            _ => reference,
+        };
+        let root = remap(self.root);
+        let mut nodes = self.nodes.clone();
+        for node in &mut nodes {
+            for child in &mut node.children {
+                *child = remap(*child);
+            }
+        }
+        Bvh {
+            nodes,
+            root,
+            primitives,
+            build_seconds: self.build_seconds,
         }
     }
 
@@ -195,7 +234,7 @@ impl<P: Primitive> Bvh4<P> {
     /// one reverse pass over the nodes, O(nodes + primitives).
     pub fn refit(&mut self) {
         for n in (0..self.nodes.len()).rev() {
-            for lane in 0..4 {
+            for lane in 0..WIDTH {
                 let b = match Child::decode(self.nodes[n].children[lane]) {
                     Child::Inner(i) => self.nodes[i as usize].bounds(),
                     Child::Leaf { first, count } => self.leaf_bounds(first, count),
@@ -211,7 +250,7 @@ impl<P: Primitive> Bvh4<P> {
         let root_area = self.bounds().half_area().max(f32::MIN_POSITIVE);
         let mut stats = BvhStats {
             nodes: self.nodes.len(),
-            node_bytes: self.nodes.len() * std::mem::size_of::<Node4>(),
+            node_bytes: self.nodes.len() * std::mem::size_of::<BvhNode>(),
             primitives: self.primitives.len(),
             build_seconds: self.build_seconds,
             ..BvhStats::default()
@@ -225,7 +264,7 @@ impl<P: Primitive> Bvh4<P> {
                 Child::Inner(i) => {
                     sah += relative;
                     let node = &self.nodes[i as usize];
-                    for lane in 0..4 {
+                    for lane in 0..WIDTH {
                         stack.push((node.children[lane], node.child_bounds(lane), depth + 1));
                     }
                 }
@@ -259,7 +298,7 @@ impl<P: Primitive> Bvh4<P> {
                     }
                     node_seen[i as usize] = true;
                     let node = &self.nodes[i as usize];
-                    for lane in 0..4 {
+                    for lane in 0..WIDTH {
                         stack.push((node.children[lane], Some(node.child_bounds(lane)), Some(i)));
                     }
                     node.bounds()

@@ -3,9 +3,8 @@
 //! medians, build times and the share of rays that hit the same input triangle.
 
 use super::workload::{median, trace_closest, trace_occluded, with_threads};
-use super::{Counters, Hit, NoCounters, RayKind, SceneAccel, Tracer, Workload};
+use super::{Hit, NoCounters, RayKind, SceneAccel, Tracer, Workload};
 use crate::bvh::BuildSettings;
-use crate::geom::Ray;
 use crate::mesh::Scene;
 use serde::Serialize;
 
@@ -175,6 +174,8 @@ pub fn compare<R: Reference>(
 mod embree_reference {
     use super::*;
     use crate::embree::EmbreeScene;
+    use crate::geom::Ray;
+    use crate::trace::Counters;
 
     impl Tracer for EmbreeScene {
         #[inline]

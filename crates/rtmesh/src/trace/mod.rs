@@ -138,9 +138,15 @@ pub struct RayQuery {
     /// `1 / direction`, with components of magnitude below 1e-18 replaced by ±1e-18 so
     /// that no box test ever computes `0 · ∞` (Embree's `rcp_safe`).
     pub inverse_direction: Vec3,
-    /// Per axis, the plane index (0..6 into [`crate::bvh::Node4::planes`]) entered first.
+    /// `inverse_direction` scaled by 1 + 2γ₃ (γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴) for far
+    /// planes, so rounding never culls a box the ray touches (Ize, JCGT 2013).
+    pub inverse_direction_far: Vec3,
+    /// Per axis, the plane index (0..6 into [`crate::bvh::BvhNode::planes`]) entered first.
     pub near_plane: [usize; 3],
 }
+
+/// 1 + 2γ₃ with γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴.
+const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * (1.5 * f32::EPSILON) / (1.0 - 1.5 * f32::EPSILON);
 
 impl RayQuery {
     /// Prepare `ray`.
@@ -170,6 +176,7 @@ impl RayQuery {
             direction: ray.direction,
             t_min: ray.t_min,
             inverse_direction,
+            inverse_direction_far: inverse_direction * ROBUST_FAR_SCALE,
             near_plane: [near(0), near(1), near(2)],
         }
     }

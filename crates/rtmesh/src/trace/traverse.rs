@@ -1,24 +1,26 @@
-//! Single-ray traversal of a [`Bvh4`]: closest hit (ordered, nearest child first, and
+//! Single-ray traversal of a [`Bvh`]: closest hit (ordered, nearest child first, and
 //! subtrees farther than the closest hit so far are skipped when popped) and any hit
 //! (stops at the first hit).
 //!
-//! Each node visit tests its four child boxes at once with 4-wide SIMD (the `wide`
-//! crate: SSE on x86-64, NEON on AArch64, scalar elsewhere) using the slab test with
-//! the precomputed safe reciprocal direction and per-axis near planes (Williams et al.,
-//! "An efficient and robust ray-box intersection algorithm", JGT 2005). The far
-//! distance is scaled by 1 + 2γ₃ (Ize, "Robust BVH ray traversal", JCGT 2013) so that
-//! rounding never culls a box the ray touches, including flat boxes and rays that run
-//! along a box face. Cost per visit: 6 subtractions, 6 multiplications, 10 min/max of
-//! 4 lanes, and a sort of at most 4 hits.
+//! Each node visit tests its eight child boxes at once with 8-wide SIMD (the `wide`
+//! crate: AVX where compiled in, else two SSE or NEON halves, scalar elsewhere) using
+//! the slab test with the precomputed safe reciprocal direction and per-axis near planes
+//! (Williams et al., "An efficient and robust ray-box intersection algorithm", JGT 2005).
+//! Far distances use the reciprocal scaled by 1 + 2γ₃ (Ize, "Robust BVH ray traversal",
+//! JCGT 2013) so that rounding never culls a box the ray touches, including flat boxes
+//! and rays that run along a box face. The min/max reductions are balanced trees to
+//! shorten the latency chain that every step of a traversal waits on. Cost per visit:
+//! 6 subtractions, 6 multiplications, 8 min/max, and a sort of the (usually 1–3) hits.
 
 use super::{Counters, RayQuery};
-use crate::bvh::{Bvh4, Child, Node4, EMPTY_CHILD};
-use wide::f32x4;
+use crate::bvh::WIDTH;
+use crate::bvh::{Bvh, BvhNode, Child, EMPTY_CHILD};
+use wide::f32x8;
 
 /// Deepest stack any tree of ours needs: the builder bounds the binary depth at 64 SAH
-/// levels plus 27 median-split levels (2^27 primitives at most), a 4-wide node is no
-/// deeper, and each level pushes at most 3 children.
-const STACK_SIZE: usize = 3 * (64 + 27) + 1;
+/// levels plus 27 median-split levels (2^27 primitives at most), a collapsed tree is no
+/// deeper, and each level pushes at most 7 children.
+const STACK_SIZE: usize = (WIDTH - 1) * (64 + 27) + 1;
 
 /// A traversal stack that is not zero-filled per ray (that memset would cost more than
 /// a typical traversal). Only slots below `len` are ever read, and all were written.
@@ -53,35 +55,30 @@ impl<T: Copy> Stack<T> {
     }
 }
 /// 1 + 2γ₃ with γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴.
-const ROBUST_FAR_SCALE: f32 =
-    1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
-/// Near distances of the four children and the mask of those the ray enters before
+/// Near distances of the eight children and the mask of those the ray enters before
 /// `t_max`.
 #[inline(always)]
-fn intersect_children(node: &Node4, ray: &RayQuery, t_max: f32) -> (f32x4, u32) {
+fn intersect_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> (f32x8, u32) {
     let p = &node.planes;
     let [nx, ny, nz] = ray.near_plane;
     let (fx, fy, fz) = ((nx + 3) % 6, (ny + 3) % 6, (nz + 3) % 6);
     let o = ray.origin;
-    let i = ray.inverse_direction;
+    let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
     let slab = |plane: usize, origin: f32, inverse: f32| {
-        (f32x4::new(p[plane]) - f32x4::splat(origin)) * f32x4::splat(inverse)
+        (f32x8::new(p[plane]) - f32x8::splat(origin)) * f32x8::splat(inverse)
     };
     let near = slab(nx, o.x, i.x)
         .fast_max(slab(ny, o.y, i.y))
-        .fast_max(slab(nz, o.z, i.z))
-        .fast_max(f32x4::splat(ray.t_min));
-    let far = (slab(fx, o.x, i.x)
-        .fast_min(slab(fy, o.y, i.y))
-        .fast_min(slab(fz, o.z, i.z))
-        * f32x4::splat(ROBUST_FAR_SCALE))
-    .fast_min(f32x4::splat(t_max));
+        .fast_max(slab(nz, o.z, i.z).fast_max(f32x8::splat(ray.t_min)));
+    let far = slab(fx, o.x, f.x)
+        .fast_min(slab(fy, o.y, f.y))
+        .fast_min(slab(fz, o.z, f.z).fast_min(f32x8::splat(t_max)));
     (near, near.simd_le(far).to_bitmask())
 }
 
 #[inline(always)]
-fn count_boxes<C: Counters>(node: &Node4, counters: &mut C) {
+fn count_boxes<C: Counters>(node: &BvhNode, counters: &mut C) {
     if C::ENABLED {
         counters.node_visited();
         counters.box_tests(node.children.iter().filter(|&&c| c != EMPTY_CHILD).count() as u32);
@@ -93,7 +90,7 @@ fn count_boxes<C: Counters>(node: &Node4, counters: &mut C) {
 /// whether anything was hit.
 #[inline(always)]
 pub fn closest_hit<P, C: Counters>(
-    bvh: &Bvh4<P>,
+    bvh: &Bvh<P>,
     ray: &RayQuery,
     t_max: &mut f32,
     counters: &mut C,
@@ -111,7 +108,7 @@ pub fn closest_hit<P, C: Counters>(
                 if mask != 0 {
                     let near = near.to_array();
                     // Hit children sorted by entry distance, nearest last.
-                    let mut hits = [(0u32, 0.0f32); 4];
+                    let mut hits = [(0u32, 0.0f32); WIDTH];
                     let mut n = 0;
                     while mask != 0 {
                         let lane = mask.trailing_zeros() as usize;
@@ -155,7 +152,7 @@ pub fn closest_hit<P, C: Counters>(
 /// returns whether a primitive blocks the ray.
 #[inline(always)]
 pub fn any_hit<P, C: Counters>(
-    bvh: &Bvh4<P>,
+    bvh: &Bvh<P>,
     ray: &RayQuery,
     t_max: f32,
     counters: &mut C,
