@@ -3,7 +3,6 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rtmesh::mesh::{weld_exact, EdgeAdjacency};
-use std::path::PathBuf;
 
 fn dragon_or_blob() -> (String, rtmesh::TriMesh) {
     let dir = std::env::var_os("RTMESH_DATA")

@@ -6,6 +6,7 @@
 #![warn(missing_docs)]
 
 pub mod bvh;
+pub mod data;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod geom;

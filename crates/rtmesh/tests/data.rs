@@ -6,25 +6,7 @@ use rtmesh::mesh::{weld_exact, MeshInfo};
 use std::path::PathBuf;
 
 fn data_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("RTMESH_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes")
-        });
-    if dir.join("MANIFEST.tsv").is_file() {
-        return Some(dir);
-    }
-    if std::env::var("RTMESH_REQUIRE_DATA").is_ok_and(|v| v == "1") {
-        panic!(
-            "RTMESH_REQUIRE_DATA=1 but no MANIFEST.tsv in {} (set RTMESH_DATA)",
-            dir.display()
-        );
-    }
-    eprintln!(
-        "note: no mesh data at {}; data test skipped (set RTMESH_DATA)",
-        dir.display()
-    );
-    None
+    rtmesh::data::mesh_data_dir()
 }
 
 /// (file, vertices, triangles) from MANIFEST.tsv.

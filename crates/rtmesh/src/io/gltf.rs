@@ -82,11 +82,32 @@ pub(super) fn read<R: BufRead>(
             let Some(position_accessor) = primitive.get(&gltf::Semantic::Positions) else {
                 return Err(MeshError::invalid(path, context("no POSITION attribute")));
             };
+            use gltf::accessor::{DataType, Dimensions};
             check_accessor(&position_accessor, &buffers)
                 .map_err(|e| MeshError::invalid(path, context(&e)))?;
+            let position_type = (
+                position_accessor.data_type(),
+                position_accessor.dimensions(),
+            );
+            if position_type != (DataType::F32, Dimensions::Vec3) {
+                return Err(MeshError::invalid(
+                    path,
+                    context("POSITION must be a float VEC3 accessor"),
+                ));
+            }
             if let Some(indices) = primitive.indices() {
                 check_accessor(&indices, &buffers)
                     .map_err(|e| MeshError::invalid(path, context(&e)))?;
+                let integer = matches!(
+                    indices.data_type(),
+                    DataType::U8 | DataType::U16 | DataType::U32
+                );
+                if !integer || indices.dimensions() != Dimensions::Scalar {
+                    return Err(MeshError::invalid(
+                        path,
+                        context("indices must be an unsigned integer SCALAR accessor"),
+                    ));
+                }
             }
             let data = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
             // Primitives that share one POSITION accessor share vertices.

@@ -122,6 +122,37 @@ impl SceneAccel {
         }
     }
 
+    /// Follow moved vertices without rebuilding: `scene` must have the topology this
+    /// was built from (same meshes, triangles and instances; positions and transforms
+    /// may change). Each leaf re-reads its triangles' corners, then every box is
+    /// recomputed bottom-up. O(triangles + nodes); the tree's quality may degrade as
+    /// the mesh deforms (lint's rebuild-vs-refit advice measures by how much).
+    pub fn refit(&mut self, scene: &Scene) {
+        self.blas
+            .par_iter_mut()
+            .zip(&scene.meshes)
+            .for_each(|(bvh, mesh)| {
+                for block in &mut bvh.primitives {
+                    let triangles: Vec<Triangle> = (0..block.count as usize)
+                        .map(|lane| block.ids[lane])
+                        .map(|id| Triangle::new(mesh.corners(id as usize), id))
+                        .collect();
+                    *block = Triangle4::new(&triangles);
+                }
+                bvh.refit();
+            });
+        if let Some(tlas) = &mut self.tlas {
+            for leaf in &mut tlas.primitives {
+                let instance = &scene.instances[leaf.instance as usize];
+                leaf.bounds = self.blas[instance.mesh]
+                    .bounds()
+                    .transformed(&instance.transform);
+                leaf.world_to_object = instance.transform.inverse();
+            }
+            tlas.refit();
+        }
+    }
+
     /// Nodes, leaves, SAH cost, bytes, build time.
     pub fn stats(&self) -> AccelStats {
         let blas_stats: Vec<BvhStats> = self.blas.iter().map(Bvh::stats).collect();
