@@ -7,6 +7,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use rtmesh::bvh::BuildSettings;
 use rtmesh::mesh::MeshInfo;
+use rtmesh::render::HeatmapMetric;
 use rtmesh::trace::{workload, RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 use std::path::{Path, PathBuf};
@@ -70,6 +71,27 @@ enum Command {
         /// Timed runs; the median is reported.
         #[arg(long, default_value_t = 5)]
         runs: usize,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Render a PNG: the mesh shaded by its normals, or a heatmap of the tracer's work.
+    ///
+    /// The default camera looks at the centre of the bounds from the (1, 1, 1)
+    /// diagonal. `--heatmap boxes` colours each pixel by the ray–box tests its primary
+    /// ray needed, `--heatmap tris` by the triangle tests, with a legend bar below.
+    Render {
+        /// The mesh file, or builtin:NAME.
+        mesh: String,
+        /// Output PNG file.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Show work per pixel instead of normals: boxes or tris.
+        #[arg(long, value_parser = ["boxes", "tris"])]
+        heatmap: Option<String>,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "800x600", value_parser = parse_size)]
+        size: (usize, usize),
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
@@ -297,6 +319,49 @@ fn run(cli: Cli) -> Result<()> {
                 println!(
                     "  bvh          {:>10} nodes, {} leaves, SAH {:.2}, depth {}, {:.1} MB ({:.1} bytes/triangle), built in {:.3} s",
                     bvh.nodes, bvh.leaves, bvh.sah_cost, bvh.depth, bvh.bytes as f64 / 1e6, bvh.bytes_per_triangle, bvh.build_seconds
+                );
+                Ok(())
+            }
+        }
+        Command::Render {
+            mesh,
+            output,
+            heatmap,
+            size: (width, height),
+            json,
+        } => {
+            let scene = load(&mesh)?;
+            let accel = SceneAccel::build(&scene, &BuildSettings::default());
+            let summary = match heatmap.as_deref() {
+                None => {
+                    rtmesh::render::normals(&scene, &accel, width, height).write_png(&output)?;
+                    serde_json::json!({"output": output, "width": width, "height": height, "shading": "normals"})
+                }
+                Some(kind) => {
+                    let metric = if kind == "boxes" {
+                        HeatmapMetric::BoxTests
+                    } else {
+                        HeatmapMetric::TriangleTests
+                    };
+                    let map = rtmesh::render::heatmap(&scene, &accel, width, height, metric);
+                    map.image.write_png(&output)?;
+                    serde_json::json!({"output": output, "width": width, "height": height, "heatmap": kind,
+                        "mean_per_ray": map.mean, "max_per_ray": map.max, "scale_max": map.scale_max})
+                }
+            };
+            if json {
+                print_json(&summary)
+            } else {
+                println!(
+                    "wrote {} ({width}x{height}{})",
+                    output.display(),
+                    heatmap
+                        .map(|h| format!(
+                            ", heatmap of {h} tests per ray: mean {:.2}, max {}",
+                            summary["mean_per_ray"].as_f64().unwrap_or(0.0),
+                            summary["max_per_ray"]
+                        ))
+                        .unwrap_or_default()
                 );
                 Ok(())
             }

@@ -13,6 +13,7 @@ pub mod geom;
 pub mod io;
 pub mod mesh;
 pub mod random;
+pub mod render;
 pub mod scenes;
 pub mod trace;
 

@@ -1,0 +1,54 @@
+//! rtmesh and Embree trace the very same rays and must hit the same triangles (ties on
+//! shared edges aside). Needs `--features embree` and libembree-dev; CI runs it.
+#![cfg(feature = "embree")]
+
+use rtmesh::embree::EmbreeScene;
+use rtmesh::trace::compare::compare;
+use rtmesh::trace::RayKind;
+use rtmesh::Scene;
+
+fn assert_agrees(name: &str, scene: &Scene) {
+    let kinds = [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow];
+    let rows = compare::<EmbreeScene>(name, scene, &kinds, (192, 192), &[1, 2], 1, 1)
+        .expect("Embree builds");
+    assert_eq!(rows.len(), 6);
+    for row in rows {
+        assert!(row.rays > 0);
+        assert!(
+            row.same_hits >= 0.999,
+            "{name} {} on {} threads: only {:.4} of rays agree",
+            row.workload,
+            row.threads,
+            row.same_hits
+        );
+        assert!(row.rtmesh_mrays_per_s > 0.0 && row.other_mrays_per_s > 0.0);
+    }
+}
+
+#[test]
+fn embree_hits_the_same_triangles_on_procedural_scenes() {
+    assert_agrees(
+        "blob",
+        &Scene::from_mesh(rtmesh::scenes::scan_blob(20_000, 2)),
+    );
+    assert_agrees("room", &rtmesh::scenes::room());
+    assert_agrees(
+        "cylinder",
+        &Scene::from_mesh(rtmesh::scenes::fan_cylinder(128)),
+    );
+}
+
+#[test]
+fn embree_hits_the_same_triangles_on_real_meshes() {
+    let Some(dir) = rtmesh::data::mesh_data_dir() else {
+        return;
+    };
+    for file in [
+        "stanford-bunny.obj",
+        "dragon_vrip_res2.ply",
+        "2CylinderEngine.glb",
+    ] {
+        let scene = rtmesh::io::read(&dir.join(file)).unwrap();
+        assert_agrees(file, &scene);
+    }
+}
