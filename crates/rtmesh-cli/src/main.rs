@@ -147,9 +147,10 @@ enum BenchCommand {
         /// Mesh files or builtin:NAME.
         #[arg(required = true)]
         meshes: Vec<String>,
-        /// The tracer to compare with: embree.
-        #[arg(long)]
-        vs: Option<String>,
+        /// Tracers to compare with, comma separated: embree, obvhs (each needs the
+        /// cargo feature of the same name).
+        #[arg(long, value_delimiter = ',')]
+        vs: Vec<String>,
         /// Workloads, comma separated.
         #[arg(long, value_delimiter = ',', default_value = "primary,diffuse")]
         rays: Vec<RayKind>,
@@ -378,16 +379,7 @@ fn run(cli: Cli) -> Result<()> {
                     builds,
                     json,
                 },
-        } => bench_trace(
-            &meshes,
-            vs.as_deref(),
-            &rays,
-            &threads,
-            size,
-            runs,
-            builds,
-            json,
-        ),
+        } => bench_trace(&meshes, &vs, &rays, &threads, size, runs, builds, json),
         Command::Demo { json } => {
             let infos: Vec<(&str, MeshInfo)> = rtmesh::scenes::NAMES
                 .iter()
@@ -415,10 +407,62 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// The error for a comparison whose cargo feature was not built in.
+#[allow(dead_code)]
+fn missing_feature(reference: &str, name: &str, scene: &Scene) -> anyhow::Error {
+    anyhow::anyhow!(
+        "cannot compare {name} ({} triangles) with {reference}: this rtmesh was built without it; rebuild with `--features {reference}`",
+        scene.instanced_triangle_count()
+    )
+}
+
+/// Compare rtmesh with the tracer named `reference` (a cargo feature of the same name).
+#[allow(clippy::too_many_arguments)]
+fn compare_with(
+    reference: &str,
+    name: &str,
+    scene: &Scene,
+    kinds: &[RayKind],
+    size: (usize, usize),
+    thread_counts: &[usize],
+    runs: usize,
+    builds: usize,
+) -> Result<Vec<rtmesh::trace::compare::Comparison>> {
+    match reference {
+        #[cfg(feature = "embree")]
+        "embree" => rtmesh::trace::compare::compare::<rtmesh::embree::EmbreeScene>(
+            name,
+            scene,
+            kinds,
+            size,
+            thread_counts,
+            runs,
+            builds,
+        )
+        .map_err(anyhow::Error::msg),
+        #[cfg(feature = "obvhs")]
+        "obvhs" => rtmesh::trace::compare::compare::<rtmesh::trace::compare::ObvhsScene>(
+            name,
+            scene,
+            kinds,
+            size,
+            thread_counts,
+            runs,
+            builds,
+        )
+        .map_err(anyhow::Error::msg),
+        #[cfg(not(feature = "embree"))]
+        "embree" => Err(missing_feature(reference, name, scene)),
+        #[cfg(not(feature = "obvhs"))]
+        "obvhs" => Err(missing_feature(reference, name, scene)),
+        other => anyhow::bail!("unknown tracer '{other}' for --vs (have: embree, obvhs)"),
+    }
+}
+
 #[allow(clippy::too_many_arguments)]
 fn bench_trace(
     meshes: &[String],
-    vs: Option<&str>,
+    vs: &[String],
     kinds: &[RayKind],
     thread_counts: &[usize],
     size: (usize, usize),
@@ -426,40 +470,27 @@ fn bench_trace(
     builds: usize,
     json: bool,
 ) -> Result<()> {
-    use rtmesh::trace::compare::Comparison;
-    let compare = |name: &str, scene: &Scene| -> Result<Vec<Comparison>> {
-        match vs {
-            #[cfg(feature = "embree")]
-            Some("embree") => rtmesh::trace::compare::compare::<rtmesh::embree::EmbreeScene>(name, scene, kinds, size, thread_counts, runs, builds)
-                .map_err(anyhow::Error::msg),
-            #[cfg(not(feature = "embree"))]
-            Some("embree") => anyhow::bail!(
-                "cannot compare {name} ({} triangles) with Embree: this rtmesh was built without it; rebuild with `--features embree` (needs libembree-dev)",
-                scene.instanced_triangle_count()
-            ),
-            Some(other) => anyhow::bail!("unknown tracer '{other}' for --vs (have: embree)"),
-            None => unreachable!("handled below"),
-        }
-    };
     if !json {
-        match vs {
-            Some(other) => println!(
-                "{:<28} {:>8} {:>3} {:>9} {:>11} {:>11} {:>7} {:>9} {:>9} {:>8}",
+        if vs.is_empty() {
+            println!(
+                "{:<24} {:>8} {:>3} {:>8} {:>11} {:>8} {:>8} {:>9}",
+                "mesh", "rays", "thr", "workload", "Mrays/s", "box/ray", "tri/ray", "build s"
+            );
+        } else {
+            println!(
+                "{:<24} {:>8} {:>3} {:>8} {:>7} {:>11} {:>10} {:>7} {:>9} {:>9} {:>8}",
                 "mesh",
                 "rays",
                 "thr",
                 "workload",
+                "vs",
                 "rtmesh Mr/s",
-                format!("{other} Mr/s"),
+                "other Mr/s",
                 "ratio",
                 "build rt",
                 "build ref",
                 "same"
-            ),
-            None => println!(
-                "{:<28} {:>8} {:>3} {:>9} {:>11} {:>8} {:>8} {:>9}",
-                "mesh", "rays", "thr", "workload", "Mrays/s", "box/ray", "tri/ray", "build s"
-            ),
+            );
         }
     }
     for mesh in meshes {
@@ -468,56 +499,80 @@ fn bench_trace(
             .file_name()
             .and_then(|n| n.to_str())
             .unwrap_or(mesh);
-        if vs.is_none() {
-            for &threads in thread_counts {
-                workload::with_threads(threads, || -> Result<()> {
-                    let build_times: Vec<f64> = (0..builds.max(1))
-                        .map(|_| SceneAccel::build(&scene, &BuildSettings::default()).build_seconds)
-                        .collect();
-                    let build_seconds = workload::median(&build_times);
-                    let accel = SceneAccel::build(&scene, &BuildSettings::default());
-                    for &kind in kinds {
-                        let work = Workload::generate(kind, &scene, &accel, size.0, size.1, 1);
-                        let run = workload::measure(&accel, &work, runs);
-                        let threads = rayon::current_num_threads();
-                        if json {
-                            let mut value = serde_json::to_value(&run)?;
-                            value["mesh"] = serde_json::json!(name);
-                            value["workload"] = serde_json::json!(kind.name());
-                            value["threads"] = serde_json::json!(threads);
-                            value["build_seconds"] = serde_json::json!(build_seconds);
-                            println!("{value}");
-                        } else {
-                            println!(
-                                "{name:<28} {:>8} {threads:>3} {:>9} {:>11.2} {:>8.2} {:>8.2} {:>9.3}",
-                                run.rays, kind.name(), run.mrays_per_s, run.box_tests_per_ray, run.tri_tests_per_ray, build_seconds
-                            );
-                        }
-                    }
-                    Ok(())
-                })?;
-            }
+        if vs.is_empty() {
+            bench_own(name, &scene, kinds, thread_counts, size, runs, builds, json)?;
             continue;
         }
-        for row in compare(name, &scene)? {
-            if json {
-                println!("{}", row.to_json());
-            } else {
-                println!(
-                    "{:<28} {:>8} {:>3} {:>9} {:>11.2} {:>11.2} {:>6.2}x {:>9.3} {:>9.3} {:>7.3}%",
-                    row.mesh,
-                    row.rays,
-                    row.threads,
-                    row.workload,
-                    row.rtmesh_mrays_per_s,
-                    row.other_mrays_per_s,
-                    row.ratio,
-                    row.rtmesh_build_seconds,
-                    row.other_build_seconds,
-                    100.0 * row.same_hits
-                );
+        for reference in vs {
+            for row in compare_with(
+                reference,
+                name,
+                &scene,
+                kinds,
+                size,
+                thread_counts,
+                runs,
+                builds,
+            )? {
+                if json {
+                    println!("{}", row.to_json());
+                } else {
+                    println!(
+                        "{:<24} {:>8} {:>3} {:>8} {:>7} {:>11.2} {:>10.2} {:>6.2}x {:>9.3} {:>9.3} {:>7.3}%",
+                        row.mesh, row.rays, row.threads, row.workload, row.other, row.rtmesh_mrays_per_s, row.other_mrays_per_s, row.ratio,
+                        row.rtmesh_build_seconds, row.other_build_seconds, 100.0 * row.same_hits
+                    );
+                }
             }
         }
+    }
+    Ok(())
+}
+
+/// rtmesh alone: speed and work per ray for each thread count and workload.
+#[allow(clippy::too_many_arguments)]
+fn bench_own(
+    name: &str,
+    scene: &Scene,
+    kinds: &[RayKind],
+    thread_counts: &[usize],
+    (width, height): (usize, usize),
+    runs: usize,
+    builds: usize,
+    json: bool,
+) -> Result<()> {
+    for &threads in thread_counts {
+        workload::with_threads(threads, || -> Result<()> {
+            let build_times: Vec<f64> = (0..builds.max(1))
+                .map(|_| SceneAccel::build(scene, &BuildSettings::default()).build_seconds)
+                .collect();
+            let build_seconds = workload::median(&build_times);
+            let accel = SceneAccel::build(scene, &BuildSettings::default());
+            for &kind in kinds {
+                let work = Workload::generate(kind, scene, &accel, width, height, 1);
+                let run = workload::measure(&accel, &work, runs);
+                let threads = rayon::current_num_threads();
+                if json {
+                    let mut value = serde_json::to_value(&run)?;
+                    value["mesh"] = serde_json::json!(name);
+                    value["workload"] = serde_json::json!(kind.name());
+                    value["threads"] = serde_json::json!(threads);
+                    value["build_seconds"] = serde_json::json!(build_seconds);
+                    println!("{value}");
+                } else {
+                    println!(
+                        "{name:<24} {:>8} {threads:>3} {:>8} {:>11.2} {:>8.2} {:>8.2} {:>9.3}",
+                        run.rays,
+                        kind.name(),
+                        run.mrays_per_s,
+                        run.box_tests_per_ray,
+                        run.tri_tests_per_ray,
+                        build_seconds
+                    );
+                }
+            }
+            Ok(())
+        })?;
     }
     Ok(())
 }
