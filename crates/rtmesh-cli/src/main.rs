@@ -418,6 +418,10 @@ fn missing_feature(reference: &str, name: &str, scene: &Scene) -> anyhow::Error 
 
 /// Compare rtmesh with the tracer named `reference` (a cargo feature of the same name).
 #[allow(clippy::too_many_arguments)]
+#[cfg_attr(
+    not(all(feature = "embree", feature = "obvhs")),
+    allow(unused_variables)
+)]
 fn compare_with(
     reference: &str,
     name: &str,

@@ -5,11 +5,7 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use rtmesh::mesh::{weld_exact, EdgeAdjacency};
 
 fn dragon_or_blob() -> (String, rtmesh::TriMesh) {
-    let dir = std::env::var_os("RTMESH_DATA")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/meshes")
-        });
+    let dir = rtmesh::data::mesh_data_dir().unwrap_or_default();
     match rtmesh::io::read(&dir.join("dragon_vrip.ply")) {
         Ok(scene) => ("dragon_vrip (871k tris)".into(), scene.flatten()),
         Err(e) => {

@@ -125,7 +125,7 @@ fn check_occluded(scene: &Scene, rays: &[Ray], occluded: &[bool]) -> usize {
             .iter()
             .filter(|(_, c)| intersect_f64(ray, *c).is_some())
             .collect();
-        if o != !hits.is_empty() {
+        if o == hits.is_empty() {
             let grazing = hits.iter().all(|(_, c)| edge_distance(ray, *c) < 1e-5);
             assert!(
                 grazing,

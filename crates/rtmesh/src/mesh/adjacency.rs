@@ -173,16 +173,17 @@ pub fn connected_components(adjacency: &EdgeAdjacency) -> (Vec<u32>, usize) {
         }
     }
     let mut label = vec![u32::MAX; n];
-    let mut component = vec![0u32; n];
     let mut count = 0;
-    for t in 0..n {
-        let root = find(&mut parent, t as u32) as usize;
-        if label[root] == u32::MAX {
-            label[root] = count as u32;
-            count += 1;
-        }
-        component[t] = label[root];
-    }
+    let component = (0..n as u32)
+        .map(|t| {
+            let root = find(&mut parent, t) as usize;
+            if label[root] == u32::MAX {
+                label[root] = count as u32;
+                count += 1;
+            }
+            label[root]
+        })
+        .collect();
     (component, count)
 }
 

@@ -54,7 +54,6 @@ impl<T: Copy> Stack<T> {
         Some(unsafe { self.slots[self.len].assume_init() })
     }
 }
-/// 1 + 2γ₃ with γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴.
 
 /// Near distances of the eight children and the mask of those the ray enters before
 /// `t_max`.
