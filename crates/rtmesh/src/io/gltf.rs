@@ -40,6 +40,11 @@ pub(super) fn read<R: BufRead>(
             ));
         }
     }
+    // The gltf crate's validator indexes the POSITION accessor before checking that it
+    // exists (a panic found by fuzzing), so check that reference first.
+    let unvalidated = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| MeshError::invalid(path, e.to_string()))?;
+    check_position_references(unvalidated.as_json()).map_err(|e| MeshError::invalid(path, e))?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(&bytes).map_err(|e| MeshError::invalid(path, e.to_string()))?;
     let base = path.parent().filter(|p| p.exists());
@@ -163,6 +168,24 @@ pub(super) fn read<R: BufRead>(
             .collect();
     }
     Ok(scene)
+}
+
+fn check_position_references(root: &gltf::json::Root) -> Result<(), String> {
+    let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive.attributes.get(&position) {
+                if index.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: POSITION names accessor {} but there are {}",
+                        index.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn place_nodes(node: &gltf::Node, parent: Affine3A, depth: usize, instances: &mut Vec<Instance>) {
