@@ -101,7 +101,10 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
-    /// Run rtmesh on the built-in scenes (for now: their info).
+    /// Run rtmesh on the built-in scenes: their info, BVH and traced speed.
+    ///
+    /// For now the demo inspects and traces each built-in scene at 512x512; the
+    /// optimizers (pairing, strips, clusters, repair) will join it as they land.
     Demo {
         /// Print one JSON object instead of text.
         #[arg(long)]
@@ -381,26 +384,47 @@ fn run(cli: Cli) -> Result<()> {
                 },
         } => bench_trace(&meshes, &vs, &rays, &threads, size, runs, builds, json),
         Command::Demo { json } => {
-            let infos: Vec<(&str, MeshInfo)> = rtmesh::scenes::NAMES
-                .iter()
-                .map(|&name| {
-                    (
-                        name,
-                        MeshInfo::of(&rtmesh::scenes::by_name(name).expect("built-in")),
-                    )
-                })
-                .collect();
-            if json {
-                print_json(
-                    &infos
-                        .iter()
-                        .map(|(n, i)| serde_json::json!({"scene": n, "info": i}))
-                        .collect::<Vec<_>>(),
-                )
-            } else {
-                for (name, info) in &infos {
-                    print_info(&format!("builtin:{name}"), info);
+            let mut report = Vec::new();
+            for &name in &rtmesh::scenes::NAMES {
+                let scene = rtmesh::scenes::by_name(name).expect("built-in");
+                let info = MeshInfo::of(&scene);
+                let accel = SceneAccel::build(&scene, &BuildSettings::default());
+                let runs: Vec<_> = [RayKind::Primary, RayKind::Diffuse]
+                    .into_iter()
+                    .map(|kind| {
+                        let work = Workload::generate(kind, &scene, &accel, 512, 512, 1);
+                        (kind, workload::measure(&accel, &work, 3))
+                    })
+                    .collect();
+                if !json {
+                    print_info(&format!("builtin:{name}"), &info);
+                    let bvh = accel.stats();
+                    println!(
+                        "  bvh                {:>10} nodes, SAH {:.2}, {:.0} bytes/triangle, built in {:.3} s",
+                        bvh.nodes, bvh.sah_cost, bvh.bytes_per_triangle, bvh.build_seconds
+                    );
+                    for (kind, run) in &runs {
+                        println!(
+                            "  trace {:<12} {:>10.2} Mrays/s, {:.1} box and {:.1} triangle tests per ray, {} of {} rays hit",
+                            kind.name(), run.mrays_per_s, run.box_tests_per_ray, run.tri_tests_per_ray, run.hits, run.rays
+                        );
+                    }
                 }
+                let traces: serde_json::Map<String, serde_json::Value> = runs
+                    .iter()
+                    .map(|(kind, run)| {
+                        (
+                            kind.name().to_owned(),
+                            serde_json::to_value(run).expect("plain data"),
+                        )
+                    })
+                    .collect();
+                report.push(serde_json::json!({"scene": name, "info": info, "bvh": accel.stats(), "trace": traces}));
+            }
+            if json {
+                print_json(&report)
+            } else {
+                println!("\nnext: rtmesh render builtin:blob -o blob.png --heatmap boxes; rtmesh bench trace MESH...");
                 Ok(())
             }
         }
