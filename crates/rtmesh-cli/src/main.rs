@@ -8,6 +8,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use rtmesh::bvh::BuildSettings;
 use rtmesh::mesh::MeshInfo;
 use rtmesh::render::HeatmapMetric;
+use rtmesh::trace::compare::{CompareSettings, Comparison};
 use rtmesh::trace::{workload, RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 use std::path::{Path, PathBuf};
@@ -441,7 +442,6 @@ fn missing_feature(reference: &str, name: &str, scene: &Scene) -> anyhow::Error 
 }
 
 /// Compare rtmesh with the tracer named `reference` (a cargo feature of the same name).
-#[allow(clippy::too_many_arguments)]
 #[cfg_attr(
     not(all(feature = "embree", feature = "obvhs")),
     allow(unused_variables)
@@ -450,35 +450,17 @@ fn compare_with(
     reference: &str,
     name: &str,
     scene: &Scene,
-    kinds: &[RayKind],
-    size: (usize, usize),
-    thread_counts: &[usize],
-    runs: usize,
-    builds: usize,
-) -> Result<Vec<rtmesh::trace::compare::Comparison>> {
+    settings: &CompareSettings,
+) -> Result<Vec<Comparison>> {
+    #[allow(unused_imports)]
+    use rtmesh::trace::compare::compare;
     match reference {
         #[cfg(feature = "embree")]
-        "embree" => rtmesh::trace::compare::compare::<rtmesh::embree::EmbreeScene>(
-            name,
-            scene,
-            kinds,
-            size,
-            thread_counts,
-            runs,
-            builds,
-        )
-        .map_err(anyhow::Error::msg),
+        "embree" => compare::<rtmesh::embree::EmbreeScene>(name, scene, settings)
+            .map_err(anyhow::Error::msg),
         #[cfg(feature = "obvhs")]
-        "obvhs" => rtmesh::trace::compare::compare::<rtmesh::trace::compare::ObvhsScene>(
-            name,
-            scene,
-            kinds,
-            size,
-            thread_counts,
-            runs,
-            builds,
-        )
-        .map_err(anyhow::Error::msg),
+        "obvhs" => compare::<rtmesh::trace::compare::ObvhsScene>(name, scene, settings)
+            .map_err(anyhow::Error::msg),
         #[cfg(not(feature = "embree"))]
         "embree" => Err(missing_feature(reference, name, scene)),
         #[cfg(not(feature = "obvhs"))]
@@ -521,6 +503,13 @@ fn bench_trace(
             );
         }
     }
+    let compare_settings = CompareSettings {
+        kinds: kinds.to_vec(),
+        size,
+        thread_counts: thread_counts.to_vec(),
+        runs,
+        builds,
+    };
     for mesh in meshes {
         let scene = load(mesh)?;
         let name = Path::new(mesh)
@@ -532,16 +521,7 @@ fn bench_trace(
             continue;
         }
         for reference in vs {
-            for row in compare_with(
-                reference,
-                name,
-                &scene,
-                kinds,
-                size,
-                thread_counts,
-                runs,
-                builds,
-            )? {
+            for row in compare_with(reference, name, &scene, &compare_settings)? {
                 if json {
                     println!("{}", row.to_json());
                 } else {

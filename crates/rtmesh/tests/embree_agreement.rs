@@ -3,14 +3,19 @@
 #![cfg(feature = "embree")]
 
 use rtmesh::embree::EmbreeScene;
-use rtmesh::trace::compare::compare;
+use rtmesh::trace::compare::{compare, CompareSettings};
 use rtmesh::trace::RayKind;
 use rtmesh::Scene;
 
 fn assert_agrees(name: &str, scene: &Scene) {
-    let kinds = [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow];
-    let rows = compare::<EmbreeScene>(name, scene, &kinds, (192, 192), &[1, 2], 1, 1)
-        .expect("Embree builds");
+    let settings = CompareSettings {
+        kinds: vec![RayKind::Primary, RayKind::Diffuse, RayKind::Shadow],
+        size: (192, 192),
+        thread_counts: vec![1, 2],
+        runs: 1,
+        builds: 1,
+    };
+    let rows = compare::<EmbreeScene>(name, scene, &settings).expect("Embree builds");
     assert_eq!(rows.len(), 6);
     for row in rows {
         assert!(row.rays > 0);

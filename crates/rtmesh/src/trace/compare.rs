@@ -99,18 +99,36 @@ pub trait Reference: Tracer + Sized {
     fn build(scene: &Scene, threads: usize) -> Result<(Self, f64), String>;
 }
 
-/// Compare rtmesh with `R` on `scene` for each workload kind and thread count. Builds
+/// What a comparison traces and how often.
+#[derive(Clone, Debug)]
+pub struct CompareSettings {
+    /// Workloads.
+    pub kinds: Vec<RayKind>,
+    /// Image size (width, height) of the primary rays.
+    pub size: (usize, usize),
+    /// Thread counts (0 = all cores).
+    pub thread_counts: Vec<usize>,
+    /// Timed runs per tracer; medians are reported.
+    pub runs: usize,
+    /// Builds per structure; the median build time is reported.
+    pub builds: usize,
+}
+
+/// Compare rtmesh with `R` on `scene` for each workload kind and thread count: builds
 /// `builds` times each (median), traces `runs` times each, alternating (medians).
-#[allow(clippy::too_many_arguments)]
 pub fn compare<R: Reference>(
     mesh: &str,
     scene: &Scene,
-    kinds: &[RayKind],
-    (width, height): (usize, usize),
-    thread_counts: &[usize],
-    runs: usize,
-    builds: usize,
+    settings: &CompareSettings,
 ) -> Result<Vec<Comparison>, String> {
+    let CompareSettings {
+        kinds,
+        size: (width, height),
+        thread_counts,
+        runs,
+        builds,
+    } = settings;
+    let (width, height, runs, builds) = (*width, *height, *runs, *builds);
     let mut rows = Vec::new();
     for &threads in thread_counts {
         let result = with_threads(threads, || -> Result<Vec<Comparison>, String> {

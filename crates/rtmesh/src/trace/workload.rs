@@ -247,38 +247,39 @@ fn cosine_direction(normal: Vec3, r1: f32, r2: f32) -> Vec3 {
     .normalize()
 }
 
-/// Trace closest hits of `rays` on the current rayon pool; returns hits and per-ray
-/// counters (zero-sized and free for [`NoCounters`]).
-pub fn trace_closest<C: Counters + Copy>(tracer: &impl Tracer, rays: &[Ray]) -> (Vec<Hit>, Vec<C>) {
-    let mut hits = vec![Hit::MISS; rays.len()];
+/// Run `trace` on every ray on the current rayon pool, a tile (64 rays) per work item;
+/// returns the outcomes and per-ray counters (zero-sized and free for [`NoCounters`]).
+fn trace_each<C: Counters + Copy, R: Copy + Send>(
+    rays: &[Ray],
+    nothing: R,
+    trace: impl Fn(&Ray, &mut C) -> R + Sync,
+) -> (Vec<R>, Vec<C>) {
+    let mut outcomes = vec![nothing; rays.len()];
     let mut counters = vec![C::default(); rays.len()];
     rays.par_chunks(CHUNK)
-        .zip(hits.par_chunks_mut(CHUNK))
+        .zip(outcomes.par_chunks_mut(CHUNK))
         .zip(counters.par_chunks_mut(CHUNK))
-        .for_each(|((rays, hits), counters)| {
-            for ((ray, hit), counter) in rays.iter().zip(hits).zip(counters) {
-                *hit = tracer.intersect(ray, counter);
+        .for_each(|((rays, outcomes), counters)| {
+            for ((ray, outcome), counter) in rays.iter().zip(outcomes).zip(counters) {
+                *outcome = trace(ray, counter);
             }
         });
-    (hits, counters)
+    (outcomes, counters)
 }
 
-/// Trace occlusion of `rays` on the current rayon pool.
+/// Closest hits of `rays` on the current rayon pool, with per-ray counters.
+pub fn trace_closest<C: Counters + Copy>(tracer: &impl Tracer, rays: &[Ray]) -> (Vec<Hit>, Vec<C>) {
+    trace_each(rays, Hit::MISS, |ray, counters| {
+        tracer.intersect(ray, counters)
+    })
+}
+
+/// Occlusion of `rays` on the current rayon pool, with per-ray counters.
 pub fn trace_occluded<C: Counters + Copy>(
     tracer: &impl Tracer,
     rays: &[Ray],
 ) -> (Vec<bool>, Vec<C>) {
-    let mut occluded = vec![false; rays.len()];
-    let mut counters = vec![C::default(); rays.len()];
-    rays.par_chunks(CHUNK)
-        .zip(occluded.par_chunks_mut(CHUNK))
-        .zip(counters.par_chunks_mut(CHUNK))
-        .for_each(|((rays, out), counters)| {
-            for ((ray, o), counter) in rays.iter().zip(out).zip(counters) {
-                *o = tracer.occluded(ray, counter);
-            }
-        });
-    (occluded, counters)
+    trace_each(rays, false, |ray, counters| tracer.occluded(ray, counters))
 }
 
 fn mix(mut z: u64) -> u64 {
