@@ -4,7 +4,9 @@
 //! space (the direction is not renormalised, so `t` means the same in both spaces) and
 //! traverses that mesh's BVH. A scene of one untransformed mesh skips the TLAS.
 
-use super::traverse::{any_hit, closest_hit};
+#[cfg(target_arch = "x86_64")]
+use super::traverse::AvxNodeTest;
+use super::traverse::{any_hit, closest_hit, NodeTest, PortableNodeTest};
 use super::triangle::{Triangle4, TRIANGLE4_LANES};
 use super::{Counters, Hit, RayQuery, Tracer, Triangle};
 use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive};
@@ -182,24 +184,24 @@ impl SceneAccel {
     }
 }
 
-impl Tracer for SceneAccel {
-    /// Closest hit of `ray`, counting work into `counters`.
-    #[inline]
-    fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+impl SceneAccel {
+    /// Closest hit of `ray` with node test `T`.
+    #[inline(always)]
+    fn intersect_with<T: NodeTest, C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
         let query = RayQuery::new(ray);
         let mut hit = Hit::MISS;
         hit.t = ray.t_max;
         match &self.tlas {
             None => {
                 if let Some(bvh) = self.blas.first() {
-                    if intersect_blas(bvh, &query, &mut hit, counters) {
+                    if intersect_blas::<T, _>(bvh, &query, &mut hit, counters) {
                         hit.instance = 0;
                         hit.geometry = 0;
                     }
                 }
             }
             Some(tlas) => {
-                closest_hit(
+                closest_hit::<T, _, _>(
                     tlas,
                     &query,
                     &mut hit.t.clone(),
@@ -208,7 +210,7 @@ impl Tracer for SceneAccel {
                         let mut found = false;
                         for instance in instances {
                             let local = transform_query(&query, &instance.world_to_object);
-                            if intersect_blas(
+                            if intersect_blas::<T, _>(
                                 &self.blas[instance.mesh as usize],
                                 &local,
                                 &mut hit,
@@ -231,16 +233,16 @@ impl Tracer for SceneAccel {
         hit
     }
 
-    /// Whether anything blocks `ray` within `(t_min, t_max)`.
-    #[inline]
-    fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+    /// Whether anything blocks `ray` within `(t_min, t_max)`, with node test `T`.
+    #[inline(always)]
+    fn occluded_with<T: NodeTest, C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
         let query = RayQuery::new(ray);
         match &self.tlas {
             None => self
                 .blas
                 .first()
-                .is_some_and(|bvh| occluded_blas(bvh, &query, ray.t_max, counters)),
-            Some(tlas) => any_hit(
+                .is_some_and(|bvh| occluded_blas::<T, _>(bvh, &query, ray.t_max, counters)),
+            Some(tlas) => any_hit::<T, _, _>(
                 tlas,
                 &query,
                 ray.t_max,
@@ -248,11 +250,68 @@ impl Tracer for SceneAccel {
                 |instances, t_max, counters| {
                     instances.iter().any(|instance| {
                         let local = transform_query(&query, &instance.world_to_object);
-                        occluded_blas(&self.blas[instance.mesh as usize], &local, t_max, counters)
+                        occluded_blas::<T, _>(
+                            &self.blas[instance.mesh as usize],
+                            &local,
+                            t_max,
+                            counters,
+                        )
                     })
                 },
             ),
         }
+    }
+
+    /// [`Self::intersect_with`] compiled with AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn intersect_avx<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+        self.intersect_with::<AvxNodeTest, C>(ray, counters)
+    }
+
+    /// [`Self::occluded_with`] compiled with AVX.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    unsafe fn occluded_avx<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        self.occluded_with::<AvxNodeTest, C>(ray, counters)
+    }
+}
+
+/// Whether this CPU has AVX (detected once, then a cached flag).
+#[inline(always)]
+fn has_avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+impl Tracer for SceneAccel {
+    /// Closest hit of `ray`, counting work into `counters`; the AVX node test where the
+    /// CPU has it, the portable one elsewhere (bit-identical results).
+    #[inline]
+    fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx() {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.intersect_avx(ray, counters) };
+        }
+        self.intersect_with::<PortableNodeTest, C>(ray, counters)
+    }
+
+    /// Whether anything blocks `ray` within `(t_min, t_max)`.
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx() {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.occluded_avx(ray, counters) };
+        }
+        self.occluded_with::<PortableNodeTest, C>(ray, counters)
     }
 }
 
@@ -267,14 +326,14 @@ fn transform_query(query: &RayQuery, world_to_object: &Affine3A) -> RayQuery {
 }
 
 #[inline(always)]
-fn intersect_blas<C: Counters>(
+fn intersect_blas<T: NodeTest, C: Counters>(
     bvh: &Bvh<Triangle4>,
     query: &RayQuery,
     hit: &mut Hit,
     counters: &mut C,
 ) -> bool {
     let mut t_max = hit.t;
-    closest_hit(
+    closest_hit::<T, _, _>(
         bvh,
         query,
         &mut t_max,
@@ -294,16 +353,42 @@ fn intersect_blas<C: Counters>(
 }
 
 #[inline(always)]
-fn occluded_blas<C: Counters>(
+fn occluded_blas<T: NodeTest, C: Counters>(
     bvh: &Bvh<Triangle4>,
     query: &RayQuery,
     t_max: f32,
     counters: &mut C,
 ) -> bool {
-    any_hit(bvh, query, t_max, counters, |blocks, t_max, counters| {
+    any_hit::<T, _, _>(bvh, query, t_max, counters, |blocks, t_max, counters| {
         blocks.iter().any(|block| {
             counters.triangle_tests(block.count);
             block.occludes(query, t_max)
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::trace::{NoCounters, RayKind, Workload};
+
+    #[test]
+    fn dispatched_node_test_equals_the_portable_one() {
+        for scene in [
+            Scene::from_mesh(crate::scenes::scan_blob(5_000, 4)),
+            crate::scenes::room(),
+        ] {
+            let accel = SceneAccel::build(&scene, &BuildSettings::default());
+            for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
+                let work = Workload::generate(kind, &scene, &accel, 64, 64, 2);
+                for ray in &work.rays {
+                    let portable =
+                        accel.intersect_with::<PortableNodeTest, _>(ray, &mut NoCounters);
+                    assert_eq!(accel.intersect(ray, &mut NoCounters), portable);
+                    let blocked = accel.occluded_with::<PortableNodeTest, _>(ray, &mut NoCounters);
+                    assert_eq!(accel.occluded(ray, &mut NoCounters), blocked);
+                }
+            }
+        }
+    }
 }

@@ -55,25 +55,88 @@ impl<T: Copy> Stack<T> {
     }
 }
 
-/// Near distances of the eight children and the mask of those the ray enters before
-/// `t_max`.
-#[inline(always)]
-fn intersect_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> (f32x8, u32) {
+/// The ray–box test of one node's eight children: near distances and the mask of those
+/// the ray enters before `t_max`. Two implementations compute bit-identical results:
+/// [`PortableNodeTest`] (the `wide` crate, any CPU) and, on x86-64 CPUs with AVX,
+/// [`AvxNodeTest`] (one 256-bit register per plane instead of two halves), chosen at
+/// run time by [`crate::trace::SceneAccel`].
+pub trait NodeTest {
+    /// Near distances and hit mask of `node`'s children.
+    fn children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32);
+}
+
+/// The node test on any CPU: `wide`'s 8-lane floats (two SSE/NEON halves, or AVX when
+/// the whole program is compiled for it). The reference for [`AvxNodeTest`].
+pub struct PortableNodeTest;
+
+impl NodeTest for PortableNodeTest {
+    #[inline(always)]
+    fn children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+        let p = &node.planes;
+        let [nx, ny, nz] = ray.near_plane;
+        let (fx, fy, fz) = ((nx + 3) % 6, (ny + 3) % 6, (nz + 3) % 6);
+        let o = ray.origin;
+        let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
+        let slab = |plane: usize, origin: f32, inverse: f32| {
+            (f32x8::new(p[plane]) - f32x8::splat(origin)) * f32x8::splat(inverse)
+        };
+        let near = slab(nx, o.x, i.x)
+            .fast_max(slab(ny, o.y, i.y))
+            .fast_max(slab(nz, o.z, i.z).fast_max(f32x8::splat(ray.t_min)));
+        let far = slab(fx, o.x, f.x)
+            .fast_min(slab(fy, o.y, f.y))
+            .fast_min(slab(fz, o.z, f.z).fast_min(f32x8::splat(t_max)));
+        (near.to_array(), near.simd_le(far).to_bitmask())
+    }
+}
+
+/// The node test with AVX: the same operations as [`PortableNodeTest`] in single
+/// 256-bit instructions. Only for code compiled with AVX enabled (see
+/// [`crate::trace::SceneAccel`]'s dispatch).
+#[cfg(target_arch = "x86_64")]
+pub struct AvxNodeTest;
+
+#[cfg(target_arch = "x86_64")]
+impl NodeTest for AvxNodeTest {
+    #[inline(always)]
+    fn children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+        // SAFETY: `AvxNodeTest` is only used inside functions compiled with AVX, which
+        // are only called after `is_x86_feature_detected!("avx")`.
+        unsafe { avx_children(node, ray, t_max) }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+#[inline]
+unsafe fn avx_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+    use std::arch::x86_64::*;
     let p = &node.planes;
     let [nx, ny, nz] = ray.near_plane;
     let (fx, fy, fz) = ((nx + 3) % 6, (ny + 3) % 6, (nz + 3) % 6);
     let o = ray.origin;
     let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
     let slab = |plane: usize, origin: f32, inverse: f32| {
-        (f32x8::new(p[plane]) - f32x8::splat(origin)) * f32x8::splat(inverse)
+        // SAFETY: `p[plane]` is 8 floats.
+        let planes = unsafe { _mm256_loadu_ps(p[plane].as_ptr()) };
+        _mm256_mul_ps(
+            _mm256_sub_ps(planes, _mm256_set1_ps(origin)),
+            _mm256_set1_ps(inverse),
+        )
     };
-    let near = slab(nx, o.x, i.x)
-        .fast_max(slab(ny, o.y, i.y))
-        .fast_max(slab(nz, o.z, i.z).fast_max(f32x8::splat(ray.t_min)));
-    let far = slab(fx, o.x, f.x)
-        .fast_min(slab(fy, o.y, f.y))
-        .fast_min(slab(fz, o.z, f.z).fast_min(f32x8::splat(t_max)));
-    (near, near.simd_le(far).to_bitmask())
+    let near = _mm256_max_ps(
+        _mm256_max_ps(slab(nx, o.x, i.x), slab(ny, o.y, i.y)),
+        _mm256_max_ps(slab(nz, o.z, i.z), _mm256_set1_ps(ray.t_min)),
+    );
+    let far = _mm256_min_ps(
+        _mm256_min_ps(slab(fx, o.x, f.x), slab(fy, o.y, f.y)),
+        _mm256_min_ps(slab(fz, o.z, f.z), _mm256_set1_ps(t_max)),
+    );
+    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
+    let mut distances = [0.0f32; WIDTH];
+    // SAFETY: `distances` is 8 floats.
+    unsafe { _mm256_storeu_ps(distances.as_mut_ptr(), near) };
+    (distances, mask)
 }
 
 #[inline(always)]
@@ -88,7 +151,7 @@ fn count_boxes<C: Counters>(node: &BvhNode, counters: &mut C) {
 /// lowers `t_max` when it finds a closer hit, and returns whether it did. Returns
 /// whether anything was hit.
 #[inline(always)]
-pub fn closest_hit<P, C: Counters>(
+pub fn closest_hit<T: NodeTest, P, C: Counters>(
     bvh: &Bvh<P>,
     ray: &RayQuery,
     t_max: &mut f32,
@@ -103,9 +166,8 @@ pub fn closest_hit<P, C: Counters>(
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_boxes(node, counters);
-                let (near, mut mask) = intersect_children(node, ray, *t_max);
+                let (near, mut mask) = T::children(node, ray, *t_max);
                 if mask != 0 {
-                    let near = near.to_array();
                     // Hit children sorted by entry distance, nearest last.
                     let mut hits = [(0u32, 0.0f32); WIDTH];
                     let mut n = 0;
@@ -150,7 +212,7 @@ pub fn closest_hit<P, C: Counters>(
 /// Any-hit traversal: stops at the first leaf hit. `leaf(primitives, t_max, counters)`
 /// returns whether a primitive blocks the ray.
 #[inline(always)]
-pub fn any_hit<P, C: Counters>(
+pub fn any_hit<T: NodeTest, P, C: Counters>(
     bvh: &Bvh<P>,
     ray: &RayQuery,
     t_max: f32,
@@ -164,7 +226,7 @@ pub fn any_hit<P, C: Counters>(
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_boxes(node, counters);
-                let (_, mut mask) = intersect_children(node, ray, t_max);
+                let (_, mut mask) = T::children(node, ray, t_max);
                 if mask != 0 {
                     current = node.children[mask.trailing_zeros() as usize];
                     mask &= mask - 1;
