@@ -143,6 +143,8 @@ pub struct RayQuery {
     pub inverse_direction_far: Vec3,
     /// Per axis, the plane index (0..6 into [`crate::bvh::BvhNode::planes`]) entered first.
     pub near_plane: [usize; 3],
+    /// Per axis, the plane index left last (the opposite of `near_plane`).
+    pub far_plane: [usize; 3],
 }
 
 /// 1 + 2γ₃ with γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴.
@@ -178,6 +180,7 @@ impl RayQuery {
             inverse_direction,
             inverse_direction_far: inverse_direction * ROBUST_FAR_SCALE,
             near_plane: [near(0), near(1), near(2)],
+            far_plane: [(near(0) + 3) % 6, (near(1) + 3) % 6, (near(2) + 3) % 6],
         }
     }
 }

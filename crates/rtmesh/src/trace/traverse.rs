@@ -73,8 +73,7 @@ impl NodeTest for PortableNodeTest {
     #[inline(always)]
     fn children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
         let p = &node.planes;
-        let [nx, ny, nz] = ray.near_plane;
-        let (fx, fy, fz) = ((nx + 3) % 6, (ny + 3) % 6, (nz + 3) % 6);
+        let ([nx, ny, nz], [fx, fy, fz]) = (ray.near_plane, ray.far_plane);
         let o = ray.origin;
         let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
         let slab = |plane: usize, origin: f32, inverse: f32| {
@@ -112,8 +111,7 @@ impl NodeTest for AvxNodeTest {
 unsafe fn avx_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
     use std::arch::x86_64::*;
     let p = &node.planes;
-    let [nx, ny, nz] = ray.near_plane;
-    let (fx, fy, fz) = ((nx + 3) % 6, (ny + 3) % 6, (nz + 3) % 6);
+    let ([nx, ny, nz], [fx, fy, fz]) = (ray.near_plane, ray.far_plane);
     let o = ray.origin;
     let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
     let slab = |plane: usize, origin: f32, inverse: f32| {
