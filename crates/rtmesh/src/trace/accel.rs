@@ -46,7 +46,7 @@ impl Primitive for InstanceLeaf {
 /// Figures of a built scene: summed over BLASes, plus the TLAS.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct AccelStats {
-    /// 4-wide nodes, all levels.
+    /// 8-wide nodes, all levels.
     pub nodes: usize,
     /// Leaves, all levels.
     pub leaves: usize,

@@ -1,5 +1,6 @@
-//! The measuring ray tracer: hits, counters, prepared rays, the triangle leaf, ordered
-//! 4-wide BVH traversal, one- and two-level scenes, and deterministic workloads.
+//! The measuring ray tracer: hits, counters, prepared rays, the triangle leaves, ordered
+//! 8-wide BVH traversal, one- and two-level scenes, deterministic workloads, and
+//! side-by-side comparisons with other tracers.
 //!
 //! Counters are a type parameter ([`Counters`]): with [`NoCounters`] every count is an
 //! empty inline function and the compiler removes it, so timed runs pay nothing; with
