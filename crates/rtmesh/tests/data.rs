@@ -2,12 +2,8 @@
 //! from the workspace root). Without the data they print a note and pass, unless
 //! `RTMESH_REQUIRE_DATA=1` (CI), where missing data fails loudly.
 
+use rtmesh::data::mesh_data_dir;
 use rtmesh::mesh::{weld_exact, MeshInfo};
-use std::path::PathBuf;
-
-fn data_dir() -> Option<PathBuf> {
-    rtmesh::data::mesh_data_dir()
-}
 
 /// (file, vertices, triangles) from MANIFEST.tsv.
 fn manifest(dir: &std::path::Path) -> Vec<(String, usize, usize)> {
@@ -28,7 +24,7 @@ fn manifest(dir: &std::path::Path) -> Vec<(String, usize, usize)> {
 
 #[test]
 fn every_manifest_mesh_reads_with_its_counts() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = mesh_data_dir() else { return };
     let entries = manifest(&dir);
     assert!(
         entries.len() >= 20,
@@ -48,7 +44,7 @@ fn every_manifest_mesh_reads_with_its_counts() {
 
 #[test]
 fn known_topology_of_real_meshes() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = mesh_data_dir() else { return };
     let info = |f: &str| MeshInfo::of(&rtmesh::io::read(&dir.join(f)).unwrap());
     let bunny = info("stanford-bunny.obj");
     assert_eq!((bunny.vertices, bunny.triangles), (35_947, 69_451));
@@ -69,7 +65,7 @@ fn known_topology_of_real_meshes() {
 
 #[test]
 fn welding_joins_split_vertices() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = mesh_data_dir() else { return };
     // The teapot's seams repeat vertices: welding joins 403 of them.
     let teapot = rtmesh::io::read(&dir.join("teapot.obj")).unwrap();
     let welded = weld_exact(&teapot.meshes[0]);
@@ -99,7 +95,7 @@ fn welding_joins_split_vertices() {
 
 #[test]
 fn real_meshes_round_trip_bit_exact() {
-    let Some(dir) = data_dir() else { return };
+    let Some(dir) = mesh_data_dir() else { return };
     let out = std::env::temp_dir().join(format!("rtmesh-data-test-{}", std::process::id()));
     std::fs::create_dir_all(&out).unwrap();
     for file in [

@@ -123,32 +123,43 @@ pub fn read_with_progress(path: &Path, progress: Progress) -> Result<Scene, Mesh
     let format = Format::from_path(path)?;
     let file = std::fs::File::open(path).map_err(|e| MeshError::io(path, e))?;
     let total = file.metadata().map(|m| m.len()).unwrap_or(0);
-    let reader = CountingReader::new(
-        std::io::BufReader::with_capacity(1 << 16, file),
+    let reader = std::io::BufReader::with_capacity(1 << 16, file);
+    read_counted(
+        path,
+        format,
+        CountingReader::new(reader, total, progress),
         total,
-        progress,
-    );
+    )
+}
+
+/// Read a mesh from bytes in memory, as if from a file called `name` (the extension
+/// picks the format). glTF files that refer to external buffers cannot be read this way.
+pub fn read_bytes(name: &Path, bytes: &[u8]) -> Result<Scene, MeshError> {
+    let format = Format::from_path(name)?;
+    let total = bytes.len() as u64;
+    let mut ignore = |_: u64, _: u64| {};
+    read_counted(
+        name,
+        format,
+        CountingReader::new(bytes, total, &mut ignore),
+        total,
+    )
+}
+
+/// The reader of `format` over `reader` (`total` bytes), then the index check every
+/// reader ends with.
+fn read_counted<R: BufRead>(
+    path: &Path,
+    format: Format,
+    reader: CountingReader<'_, R>,
+    total: u64,
+) -> Result<Scene, MeshError> {
     let scene = match format {
         Format::Obj => obj::read(path, reader)?,
         Format::Ply => ply::read(path, reader, total)?,
         Format::Gltf | Format::Glb => gltf::read(path, reader)?,
     };
     check_indices(path, &scene)?;
-    Ok(scene)
-}
-
-/// Read a mesh from bytes in memory, as if from a file called `name` (the extension
-/// picks the format). glTF files that refer to external buffers cannot be read this way.
-pub fn read_bytes(name: &Path, bytes: &[u8]) -> Result<Scene, MeshError> {
-    let total = bytes.len() as u64;
-    let mut ignore = |_: u64, _: u64| {};
-    let reader = CountingReader::new(bytes, total, &mut ignore);
-    let scene = match Format::from_path(name)? {
-        Format::Obj => obj::read(name, reader)?,
-        Format::Ply => ply::read(name, reader, total)?,
-        Format::Gltf | Format::Glb => gltf::read(name, reader)?,
-    };
-    check_indices(name, &scene)?;
     Ok(scene)
 }
 

@@ -109,12 +109,6 @@ impl TriMesh {
             .extend(other.material_ids.iter().map(|m| m + material_offset));
         self.alpha_tested.extend_from_slice(&other.alpha_tested);
     }
-
-    /// Check that the per-triangle attribute arrays match the triangle count.
-    pub fn attributes_consistent(&self) -> bool {
-        self.material_ids.len() == self.triangles.len()
-            && self.alpha_tested.len() == self.triangles.len()
-    }
 }
 
 /// One placement of a mesh in the scene: `world = transform * local`.

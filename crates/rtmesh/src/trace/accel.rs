@@ -37,6 +37,18 @@ pub struct InstanceLeaf {
     pub mesh: u32,
 }
 
+impl InstanceLeaf {
+    /// The leaf for instance `index`, placing a mesh whose BVH has box `mesh_bounds`.
+    fn new(index: usize, instance: &crate::mesh::Instance, mesh_bounds: Aabb) -> Self {
+        Self {
+            bounds: mesh_bounds.transformed(&instance.transform),
+            world_to_object: instance.transform.inverse(),
+            instance: index as u32,
+            mesh: instance.mesh as u32,
+        }
+    }
+}
+
 impl Primitive for InstanceLeaf {
     fn bounds(&self) -> Aabb {
         self.bounds
@@ -107,12 +119,7 @@ impl SceneAccel {
                 .instances
                 .iter()
                 .enumerate()
-                .map(|(i, inst)| InstanceLeaf {
-                    bounds: blas[inst.mesh].bounds().transformed(&inst.transform),
-                    world_to_object: inst.transform.inverse(),
-                    instance: i as u32,
-                    mesh: inst.mesh as u32,
-                })
+                .map(|(i, inst)| InstanceLeaf::new(i, inst, blas[inst.mesh].bounds()))
                 .collect();
             Bvh::build(leaves, settings)
         });
@@ -135,21 +142,21 @@ impl SceneAccel {
             .zip(&scene.meshes)
             .for_each(|(bvh, mesh)| {
                 for block in &mut bvh.primitives {
-                    let triangles: Vec<Triangle> = (0..block.count as usize)
-                        .map(|lane| block.ids[lane])
-                        .map(|id| Triangle::new(mesh.corners(id as usize), id))
-                        .collect();
-                    *block = Triangle4::new(&triangles);
+                    let count = block.count as usize;
+                    let mut triangles = [block.triangle(0); TRIANGLE4_LANES];
+                    for (lane, triangle) in triangles[..count].iter_mut().enumerate() {
+                        let id = block.ids[lane];
+                        *triangle = Triangle::new(mesh.corners(id as usize), id);
+                    }
+                    *block = Triangle4::new(&triangles[..count]);
                 }
                 bvh.refit();
             });
         if let Some(tlas) = &mut self.tlas {
             for leaf in &mut tlas.primitives {
-                let instance = &scene.instances[leaf.instance as usize];
-                leaf.bounds = self.blas[instance.mesh]
-                    .bounds()
-                    .transformed(&instance.transform);
-                leaf.world_to_object = instance.transform.inverse();
+                let index = leaf.instance as usize;
+                let instance = &scene.instances[index];
+                *leaf = InstanceLeaf::new(index, instance, self.blas[instance.mesh].bounds());
             }
             tlas.refit();
         }

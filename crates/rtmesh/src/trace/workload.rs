@@ -355,22 +355,27 @@ pub fn measure(tracer: &impl Tracer, workload: &Workload, runs: usize) -> TraceR
     let rays = &workload.rays;
     let shadow = workload.kind == RayKind::Shadow;
     let mut all_seconds = Vec::with_capacity(runs);
-    let mut checksum = 0;
-    let mut hits = 0;
+    let (mut occluded, mut found) = (Vec::new(), Vec::new());
     for _ in 0..runs.max(1) {
         let start = std::time::Instant::now();
         if shadow {
-            let (occluded, _) = trace_occluded::<NoCounters>(tracer, rays);
-            all_seconds.push(start.elapsed().as_secs_f64());
-            checksum = occlusion_checksum(&occluded);
-            hits = occluded.iter().filter(|&&o| o).count();
+            occluded = trace_occluded::<NoCounters>(tracer, rays).0;
         } else {
-            let (found, _) = trace_closest::<NoCounters>(tracer, rays);
-            all_seconds.push(start.elapsed().as_secs_f64());
-            checksum = hit_checksum(&found);
-            hits = found.iter().filter(|h| h.is_hit()).count();
+            found = trace_closest::<NoCounters>(tracer, rays).0;
         }
+        all_seconds.push(start.elapsed().as_secs_f64());
     }
+    let (checksum, hits) = if shadow {
+        (
+            occlusion_checksum(&occluded),
+            occluded.iter().filter(|&&o| o).count(),
+        )
+    } else {
+        (
+            hit_checksum(&found),
+            found.iter().filter(|h| h.is_hit()).count(),
+        )
+    };
     let counters: Vec<RayCounters> = if shadow {
         trace_occluded::<RayCounters>(tracer, rays).1
     } else {
