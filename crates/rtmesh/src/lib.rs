@@ -14,6 +14,8 @@ pub mod embree;
 pub mod geom;
 pub mod io;
 pub mod mesh;
+pub mod pair;
+pub mod radix;
 pub mod random;
 pub mod render;
 pub mod scenes;

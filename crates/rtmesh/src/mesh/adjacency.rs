@@ -35,62 +35,21 @@ impl EdgeAdjacency {
     /// Build the adjacency of `mesh`'s triangles (by vertex index: weld first to join
     /// split vertices).
     pub fn build(mesh: &TriMesh) -> Self {
-        let vertex_count = mesh.positions.len();
-        let valid = |t: &[u32; 3]| {
-            t.iter().all(|&v| (v as usize) < vertex_count)
-                && t[0] != t[1]
-                && t[1] != t[2]
-                && t[2] != t[0]
-        };
-        // Pass 1: count half-edges per smaller vertex.
-        let mut start = vec![0u32; vertex_count + 1];
-        for t in mesh.triangles.iter().filter(|t| valid(t)) {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                start[a.min(b) as usize + 1] += 1;
-            }
-        }
-        for v in 0..vertex_count {
-            start[v + 1] += start[v];
-        }
-        // Pass 2: scatter (larger vertex, half-edge id) into each vertex's slots.
-        let half_edge_count = start[vertex_count] as usize;
-        let mut slots: Vec<(u32, u32)> = vec![(0, 0); half_edge_count];
-        let mut cursor: Vec<u32> = start[..vertex_count].to_vec();
-        for (ti, t) in mesh.triangles.iter().enumerate() {
-            if !valid(t) {
-                continue;
-            }
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let c = &mut cursor[a.min(b) as usize];
-                slots[*c as usize] = (a.max(b), (ti * 3 + k) as u32);
-                *c += 1;
-            }
-        }
-        drop(cursor);
-        // Pass 3: per vertex, sort its few half-edges by the other vertex, group twins.
+        let runs = HalfEdgeRuns::build(mesh);
+        let half_edge_count = runs.slots.len();
         let mut edges = Vec::with_capacity(half_edge_count / 2 + 1);
         let mut edge_triangle_start = Vec::with_capacity(half_edge_count / 2 + 2);
         let mut edge_triangles = Vec::with_capacity(half_edge_count);
         let mut triangle_edges = vec![[NO_EDGE; 3]; mesh.triangles.len()];
-        for v in 0..vertex_count {
-            let run = &mut slots[start[v] as usize..start[v + 1] as usize];
-            insertion_sort(run);
-            let mut i = 0;
-            while i < run.len() {
-                let other = run[i].0;
-                let edge = edges.len() as u32;
-                edges.push([v as u32, other]);
-                edge_triangle_start.push(edge_triangles.len() as u32);
-                while i < run.len() && run[i].0 == other {
-                    let half_edge = run[i].1 as usize;
-                    edge_triangles.push((half_edge / 3) as u32);
-                    triangle_edges[half_edge / 3][half_edge % 3] = edge;
-                    i += 1;
-                }
+        runs.for_each_edge(|v, other, half_edges| {
+            let edge = edges.len() as u32;
+            edges.push([v, other]);
+            edge_triangle_start.push(edge_triangles.len() as u32);
+            for &(_, half_edge) in half_edges {
+                edge_triangles.push(half_edge / 3);
+                triangle_edges[half_edge as usize / 3][half_edge as usize % 3] = edge;
             }
-        }
+        });
         edge_triangle_start.push(edge_triangles.len() as u32);
         Self {
             edges,
@@ -134,6 +93,84 @@ impl EdgeAdjacency {
     /// Edges with three or more triangles.
     pub fn nonmanifold_edge_count(&self) -> usize {
         self.count_edges(|n| n > 2)
+    }
+}
+
+/// The half-edges of a mesh grouped by canonical edge: a CSR table over the smaller
+/// vertex whose per-vertex runs are sorted by (larger vertex, half-edge id). Half-edge
+/// `3t + k` is side `(t[k], t[k + 1])` of triangle `t`. Shared by [`EdgeAdjacency`] and
+/// triangle pairing ([`crate::pair`]), which walk the edges in ascending `(min, max)`.
+pub(crate) struct HalfEdgeRuns {
+    /// `slots[start[v]..start[v + 1]]` are the half-edges whose smaller vertex is `v`.
+    start: Vec<u32>,
+    /// (larger vertex, half-edge id).
+    slots: Vec<(u32, u32)>,
+}
+
+impl HalfEdgeRuns {
+    /// Counting sort of the half-edges of valid triangles (indices in range, three
+    /// distinct vertices) on their smaller vertex, then an insertion sort per vertex.
+    pub(crate) fn build(mesh: &TriMesh) -> Self {
+        let vertex_count = mesh.positions.len();
+        let valid = |t: &[u32; 3]| {
+            t.iter().all(|&v| (v as usize) < vertex_count)
+                && t[0] != t[1]
+                && t[1] != t[2]
+                && t[2] != t[0]
+        };
+        // Pass 1: count half-edges per smaller vertex.
+        let mut start = vec![0u32; vertex_count + 1];
+        for t in mesh.triangles.iter().filter(|t| valid(t)) {
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                start[a.min(b) as usize + 1] += 1;
+            }
+        }
+        for v in 0..vertex_count {
+            start[v + 1] += start[v];
+        }
+        // Pass 2: scatter (larger vertex, half-edge id) into each vertex's slots.
+        let half_edge_count = start[vertex_count] as usize;
+        let mut slots: Vec<(u32, u32)> = Vec::with_capacity(half_edge_count);
+        let spare = slots.spare_capacity_mut();
+        let mut cursor: Vec<u32> = start[..vertex_count].to_vec();
+        for (ti, t) in mesh.triangles.iter().enumerate() {
+            if !valid(t) {
+                continue;
+            }
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                let c = &mut cursor[a.min(b) as usize];
+                spare[*c as usize].write((a.max(b), (ti * 3 + k) as u32));
+                *c += 1;
+            }
+        }
+        // SAFETY: the counts make the cursors cover every slot exactly once.
+        unsafe { slots.set_len(half_edge_count) };
+        drop(cursor);
+        // Pass 3: per vertex, sort its few half-edges by the other vertex.
+        for v in 0..vertex_count {
+            insertion_sort(&mut slots[start[v] as usize..start[v + 1] as usize]);
+        }
+        Self { start, slots }
+    }
+
+    /// Half-edges of valid triangles.
+    pub(crate) fn half_edge_count(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// Call `f(min, max, slots)` for every edge in ascending `(min, max)` order, where
+    /// `slots` are its `(max, half-edge id)` entries, half-edge ids ascending.
+    pub(crate) fn for_each_edge(&self, mut f: impl FnMut(u32, u32, &[(u32, u32)])) {
+        for v in 0..self.start.len() - 1 {
+            let mut run = &self.slots[self.start[v] as usize..self.start[v + 1] as usize];
+            while let Some(&(other, _)) = run.first() {
+                let len = run.iter().take_while(|s| s.0 == other).count();
+                f(v as u32, other, &run[..len]);
+                run = &run[len..];
+            }
+        }
     }
 }
 

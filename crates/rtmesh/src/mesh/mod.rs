@@ -9,6 +9,7 @@ mod info;
 mod validate;
 mod weld;
 
+pub(crate) use adjacency::HalfEdgeRuns;
 pub use adjacency::{connected_components, EdgeAdjacency, NO_EDGE};
 pub use info::MeshInfo;
 pub use validate::{validate, Validation};

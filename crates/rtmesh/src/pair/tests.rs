@@ -1,0 +1,269 @@
+use super::greedy::{pair_sah, pair_sah_reference, sorted_half_edge_table};
+use super::*;
+use crate::mesh::weld_exact;
+use glam::Vec3;
+use proptest::prelude::*;
+
+/// The worked example of Aman & Fenney: six vertices, five triangles fanned around
+/// vertex 5, laid out so that the half-edge table in input order has the paper's BBSA
+/// values 0,15,20, 10,10,15, 0,30,10, 18,9,30, 20,20,9.
+fn paper_example() -> TriMesh {
+    let positions = [
+        (0.0, 5.0),
+        (0.0, 12.0),
+        (10.0, 11.0),
+        (10.0, 3.0),
+        (4.0, 0.0),
+        (5.0, 9.0),
+    ]
+    .map(|(x, y)| Vec3::new(x, y, 0.0))
+    .to_vec();
+    let triangles = (0..5).map(|i| [i, (i + 1) % 5, 5]).collect();
+    TriMesh::new(positions, triangles)
+}
+
+#[test]
+fn paper_example_table_and_outcome() {
+    let mesh = paper_example();
+    let table = greedy::half_edge_table(&mesh);
+    let bbsa: Vec<f32> = table.iter().map(|r| r.bbsa).collect();
+    assert_eq!(
+        bbsa,
+        [0., 15., 20., 10., 10., 15., 0., 30., 10., 18., 9., 30., 20., 20., 9.]
+    );
+    let sorted: Vec<(f32, u32, u32, u32)> = sorted_half_edge_table(&mesh)
+        .iter()
+        .map(|r| (r.bbsa, r.first, r.second, r.triangle))
+        .collect();
+    assert_eq!(
+        sorted,
+        [
+            (30., 3, 5, 2), // twins: triangles 2 and 3 free: accepted
+            (30., 3, 5, 3),
+            (20., 0, 5, 0), // twins: 0 and 4 free: accepted
+            (20., 0, 5, 4),
+            (20., 0, 4, 4), // boundary
+            (18., 3, 4, 3), // boundary
+            (15., 1, 5, 0), // twins: 0 taken: rejected
+            (15., 1, 5, 1),
+            (10., 2, 5, 1), // twins: 2 taken: rejected
+            (10., 2, 5, 2),
+            (10., 1, 2, 1), // boundary
+            (9., 4, 5, 3),  // twins: both taken: rejected
+            (9., 4, 5, 4),
+            (0., 2, 3, 2), // boundary
+            (0., 0, 1, 0), // boundary
+        ]
+    );
+    for pairing in [pair_sah_reference(&mesh), pair_sah(&mesh)] {
+        assert_eq!(pairing.pairs, vec![[0, 4], [2, 3]]);
+        assert_eq!(pairing.unpaired, vec![1]);
+    }
+    // The five-cycle has no perfect matching: two pairs is the maximum.
+    assert_eq!(
+        matching::raise(&mesh, &pair_sah(&mesh), None).pairs.len(),
+        2
+    );
+}
+
+#[test]
+fn window_pairs_in_input_order() {
+    let mesh = paper_example();
+    // Window 1: 0 takes 1, 2 takes 3, 4 is left.
+    assert_eq!(window::pair_window(&mesh, 1).pairs, vec![[0, 1], [2, 3]]);
+    // Window 2 from 0: 1 (shares edge 1–5) and 2 (shares nothing): takes 1.
+    assert_eq!(window::pair_window(&mesh, 2).pairs, vec![[0, 1], [2, 3]]);
+}
+
+#[test]
+fn quad_convention() {
+    // Square 0-1-2-3 split along 1–2, wound counter-clockwise.
+    let a = [0, 1, 2];
+    let b = [3, 2, 1];
+    let (q, [ra, rb]) = quad(&a, &b).unwrap();
+    assert_eq!(q, [0, 1, 2, 3]);
+    assert_eq!(rotate(a, ra), [q[0], q[1], q[2]]);
+    assert_eq!(rotate(b, rb), [q[2], q[1], q[3]]);
+    // Same winding: no quad.
+    assert_eq!(quad(&[0, 1, 2], &[1, 2, 3]), None);
+}
+
+#[test]
+fn method_names_round_trip() {
+    for m in [
+        PairMethod::Sah,
+        PairMethod::SahCompressed,
+        PairMethod::Window(3),
+        PairMethod::SahMax,
+        PairMethod::Max,
+    ] {
+        assert_eq!(m.to_string().parse::<PairMethod>(), Ok(m));
+    }
+    assert!("window:0".parse::<PairMethod>().is_err());
+    assert!("greedy".parse::<PairMethod>().is_err());
+}
+
+#[test]
+fn prescan_recognises_a_paired_mesh() {
+    let mut mesh = weld_exact(&crate::scenes::scan_blob(4_000, 3)).mesh;
+    // The blob comes out of its generator in strips, already paired: shuffle it.
+    let mut random = crate::random::SplitMix64::new(5);
+    for i in (1..mesh.triangles.len()).rev() {
+        let j = (random.next_u64() % (i as u64 + 1)) as usize;
+        mesh.triangles.swap(i, j);
+    }
+    let (pairing, report) = pair(&mesh, &PairSettings::default());
+    assert!(!report.prescan_skipped);
+    let paired = reorder(&mesh, &mesh, &pairing);
+    let (again, report) = pair(&paired.mesh, &PairSettings::default());
+    assert!(report.prescan_skipped, "{report:?}");
+    assert_eq!(again.pairs.len(), pairing.pairs.len());
+}
+
+/// Checks every pairing must pass: each pair pairable (by welded position: the
+/// compressed mode pairs by position), no triangle twice, every triangle accounted for.
+fn assert_valid(mesh: &TriMesh, pairing: &Pairing) {
+    let welded = weld_exact(mesh).mesh;
+    let n = mesh.triangle_count();
+    let mut seen = vec![false; n];
+    for &[a, b] in &pairing.pairs {
+        assert!(a < b);
+        let active = ActiveTriangles::new(mesh);
+        assert!(active.get(a as usize) && active.get(b as usize));
+        assert!(quad(&welded.triangles[a as usize], &welded.triangles[b as usize]).is_some());
+        for t in [a, b] {
+            assert!(!std::mem::replace(&mut seen[t as usize], true), "{t} twice");
+        }
+    }
+    for &t in &pairing.unpaired {
+        assert!(!std::mem::replace(&mut seen[t as usize], true), "{t} twice");
+    }
+    assert!(seen.iter().all(|&s| s), "a triangle is lost");
+}
+
+/// Random meshes on a small vertex grid with duplicates, flips, degenerates, fins and
+/// an out-of-range index or NaN corner now and then.
+fn random_mesh() -> impl Strategy<Value = TriMesh> {
+    (
+        proptest::collection::vec((0u32..12, 0u32..12, 0u32..12), 0..40),
+        proptest::collection::vec((0u8..5, 0u8..5, 0u8..3), 12),
+        any::<bool>(),
+    )
+        .prop_map(|(triangles, grid, nan)| {
+            let mut positions: Vec<Vec3> = grid
+                .iter()
+                .map(|&(x, y, z)| Vec3::new(x as f32, y as f32, z as f32 * 0.5))
+                .collect();
+            if nan {
+                positions[11] = Vec3::NAN;
+            }
+            let mut triangles: Vec<[u32; 3]> =
+                triangles.iter().map(|&(a, b, c)| [a, b, c]).collect();
+            if let Some(t) = triangles.get_mut(7) {
+                t[2] = 40; // out of range
+            }
+            TriMesh::new(positions, triangles)
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+
+    #[test]
+    fn fast_greedy_equals_the_published_procedure(mesh in random_mesh()) {
+        let fast = pair_sah(&mesh);
+        prop_assert_eq!(&fast, &pair_sah_reference(&mesh));
+        assert_valid(&mesh, &fast);
+    }
+
+    #[test]
+    fn every_method_gives_a_valid_pairing(mesh in random_mesh(), window in 1usize..4) {
+        let greedy = pair_sah(&mesh);
+        let raised = matching::raise(&mesh, &greedy, Some(1.0));
+        let maximum = matching::raise(&mesh, &greedy, None);
+        for pairing in [
+            &greedy,
+            &window::pair_window(&mesh, window),
+            &compressed::pair_sah_compressed(&mesh),
+            &raised,
+            &maximum,
+        ] {
+            assert_valid(&mesh, pairing);
+        }
+        prop_assert!(raised.pairs.len() >= greedy.pairs.len());
+        prop_assert!(maximum.pairs.len() >= raised.pairs.len());
+        if let Some(exact) = brute_force_maximum(&mesh) {
+            prop_assert_eq!(maximum.pairs.len(), exact);
+        }
+    }
+
+    #[test]
+    fn reorder_keeps_every_triangle_and_its_winding(mesh in random_mesh()) {
+        let pairing = pair_sah(&mesh);
+        let out = reorder(&mesh, &mesh, &pairing);
+        let mut ids = out.input_triangle.clone();
+        ids.sort_unstable();
+        prop_assert_eq!(ids, (0..mesh.triangle_count() as u32).collect::<Vec<_>>());
+        for (i, &t) in out.input_triangle.iter().enumerate() {
+            let original = mesh.triangles[t as usize];
+            let written = out.mesh.triangles[i];
+            prop_assert!((0..3).any(|r| rotate(original, r) == written), "winding changed");
+        }
+        for p in 0..out.pair_count {
+            let [a, b] = [out.mesh.triangles[2 * p], out.mesh.triangles[2 * p + 1]];
+            // (v0, v1, v2) and (v2, v1, v3).
+            prop_assert_eq!([b[0], b[1]], [a[2], a[1]]);
+        }
+    }
+}
+
+/// Maximum matching size by exhaustive search with memoisation over the set of free
+/// triangles (meshes of up to 20 triangles), else None.
+fn brute_force_maximum(mesh: &TriMesh) -> Option<usize> {
+    let n = mesh.triangle_count();
+    if n > 20 {
+        return None;
+    }
+    let active = ActiveTriangles::new(mesh);
+    let neighbours: Vec<u32> = (0..n)
+        .map(|a| {
+            (0..n)
+                .filter(|&b| {
+                    a != b
+                        && active.get(a)
+                        && active.get(b)
+                        && shared_side(&mesh.triangles[a], &mesh.triangles[b]).is_some()
+                })
+                .fold(0u32, |m, b| m | 1 << b)
+        })
+        .collect();
+    fn best(
+        free: u32,
+        neighbours: &[u32],
+        memo: &mut std::collections::HashMap<u32, usize>,
+    ) -> usize {
+        if free == 0 {
+            return 0;
+        }
+        if let Some(&m) = memo.get(&free) {
+            return m;
+        }
+        let v = free.trailing_zeros();
+        let rest = free & !(1 << v);
+        let mut result = best(rest, neighbours, memo);
+        let mut candidates = neighbours[v as usize] & rest;
+        while candidates != 0 {
+            let u = candidates.trailing_zeros();
+            candidates &= candidates - 1;
+            result = result.max(1 + best(rest & !(1 << u), neighbours, memo));
+        }
+        memo.insert(free, result);
+        result
+    }
+    let all = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
+    Some(best(
+        all,
+        &neighbours,
+        &mut std::collections::HashMap::new(),
+    ))
+}
