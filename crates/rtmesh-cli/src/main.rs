@@ -7,7 +7,7 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use rtmesh::bvh::BuildSettings;
 use rtmesh::mesh::MeshInfo;
-use rtmesh::pair::{PairMethod, PairReport, PairSettings};
+use rtmesh::pair::{PairMethod, PairReport, PairSettings, Pairing};
 use rtmesh::render::HeatmapMetric;
 use rtmesh::trace::compare::{CompareSettings, Comparison};
 use rtmesh::trace::{workload, RayKind, SceneAccel, Workload};
@@ -103,6 +103,13 @@ enum Command {
         /// Timed runs; the median is reported.
         #[arg(long, default_value_t = 5)]
         runs: usize,
+        /// Leaf primitives: tri (4 triangles per SIMD test) or pair (4 triangle pairs
+        /// per SIMD test, paired by --pair-method after welding identical positions).
+        #[arg(long, default_value = "tri", value_parser = ["tri", "pair"])]
+        leaf: String,
+        /// How to pair for --leaf pair: sah, sah-compressed, window:N, sah-max, max.
+        #[arg(long, default_value = "sah")]
+        pair_method: PairMethod,
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
@@ -202,6 +209,35 @@ enum BenchCommand {
         #[arg(long, default_value_t = 3)]
         builds: usize,
         /// Print one JSON object per line (mesh × workload × threads) instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// The pairing paper's table for rtmesh's tracer: pair counts, time and tracing.
+    ///
+    /// Per mesh (welded): each method's pairing time (median of --runs) and paired
+    /// ratio, then the same rays (primary and diffuse) traced through triangle leaves
+    /// and through each method's pair leaves, alternating configurations each round:
+    /// box tests, triangle+pair tests and Mrays/s, with Δ against window:2.
+    Pairing {
+        /// Mesh files or builtin:NAME.
+        #[arg(required = true)]
+        meshes: Vec<String>,
+        /// Methods, comma separated (window:2 is always measured as the baseline).
+        #[arg(long, value_delimiter = ',', default_value = "sah,sah-max")]
+        methods: Vec<PairMethod>,
+        /// Workloads, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "primary,diffuse")]
+        rays: Vec<RayKind>,
+        /// Threads (0 = all cores).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
+        size: (usize, usize),
+        /// Timed rounds (medians are reported).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Print one JSON object per line instead of a table.
         #[arg(long)]
         json: bool,
     },
@@ -360,14 +396,26 @@ fn run(cli: Cli) -> Result<()> {
             size: (width, height),
             threads,
             runs,
+            leaf,
+            pair_method,
             json,
         } => {
             let scene = load(&mesh)?;
             let report = workload::with_threads(threads, || {
-                let accel = SceneAccel::build(&scene, &BuildSettings::default());
-                let work = Workload::generate(rays, &scene, &accel, width, height, 1);
-                let run = workload::measure(&accel, &work, runs);
-                (accel.stats(), run, rayon::current_num_threads())
+                let triangles = SceneAccel::build(&scene, &BuildSettings::default());
+                let work = Workload::generate(rays, &scene, &triangles, width, height, 1);
+                let (stats, run) = if leaf == "pair" {
+                    let (welded, pairings) = pair_for_tracing(&scene, pair_method);
+                    let pairs =
+                        SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());
+                    (pairs.stats(), workload::measure(&pairs, &work, runs))
+                } else {
+                    (
+                        triangles.stats(),
+                        workload::measure(&triangles, &work, runs),
+                    )
+                };
+                (stats, run, rayon::current_num_threads())
             });
             let (bvh, run, threads) = report;
             if json {
@@ -391,8 +439,8 @@ fn run(cli: Cli) -> Result<()> {
                     run.seconds
                 );
                 println!(
-                    "  per ray      {:>10.2} box tests, {:.2} triangle tests, {:.2} nodes",
-                    run.box_tests_per_ray, run.tri_tests_per_ray, run.nodes_per_ray
+                    "  per ray      {:>10.2} box tests, {:.2} triangle tests, {:.2} pair tests, {:.2} nodes",
+                    run.box_tests_per_ray, run.tri_tests_per_ray, run.pair_tests_per_ray, run.nodes_per_ray
                 );
                 println!(
                     "  hits         {:>10}  (checksum {:016x})",
@@ -461,6 +509,20 @@ fn run(cli: Cli) -> Result<()> {
                     json,
                 },
         } => bench_trace(&meshes, &vs, &rays, &threads, size, runs, builds, json),
+        Command::Bench {
+            what:
+                BenchCommand::Pairing {
+                    meshes,
+                    methods,
+                    rays,
+                    threads,
+                    size,
+                    runs,
+                    json,
+                },
+        } => workload::with_threads(threads, || {
+            bench_pairing(&meshes, &methods, &rays, size, runs, json)
+        }),
         Command::Demo { json } => {
             let mut report = Vec::new();
             for &name in &rtmesh::scenes::NAMES {
@@ -507,6 +569,25 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
     }
+}
+
+/// The welded scene and one pairing per mesh, for pair leaves.
+fn pair_for_tracing(scene: &Scene, method: PairMethod) -> (Scene, Vec<Pairing>) {
+    let mut welded = scene.clone();
+    let settings = PairSettings {
+        method,
+        prescan_threshold: None,
+        ..PairSettings::default()
+    };
+    let pairings = welded
+        .meshes
+        .iter_mut()
+        .map(|mesh| {
+            *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
+            rtmesh::pair::pair(mesh, &settings).0
+        })
+        .collect();
+    (welded, pairings)
 }
 
 /// Weld and pair every geometry of `scene` in place (each mesh becomes its paired,
@@ -682,6 +763,167 @@ fn bench_own(
             }
             Ok(())
         })?;
+    }
+    Ok(())
+}
+
+/// Traces rays with one configuration's structure, counters off.
+type TraceFn = Box<dyn Fn(&[rtmesh::Ray]) -> Vec<rtmesh::trace::Hit> + Sync>;
+
+/// One configuration of `bench pairing`: unpaired triangles or one method's pairs.
+struct PairingRow {
+    method: String,
+    pair_seconds: f64,
+    pair_ratio: f64,
+    accel: TraceFn,
+    counted: Box<dyn Fn(&Workload) -> rtmesh::trace::TraceRun + Sync>,
+}
+
+fn bench_pairing(
+    meshes: &[String],
+    methods: &[PairMethod],
+    kinds: &[RayKind],
+    (width, height): (usize, usize),
+    runs: usize,
+    json: bool,
+) -> Result<()> {
+    use rtmesh::trace::workload::trace_closest;
+    use rtmesh::trace::NoCounters;
+    let mut all_methods = vec![PairMethod::Window(2)];
+    all_methods.extend(methods.iter().filter(|&&m| m != PairMethod::Window(2)));
+    if !json {
+        println!(
+            "{:<20} {:<14} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7}",
+            "mesh",
+            "method",
+            "pair s",
+            "paired",
+            "rays",
+            "box/ray",
+            "tri/ray",
+            "pair/ray",
+            "Mrays/s",
+            "Δbox",
+            "Δtests",
+            "ΔMr/s",
+            "same"
+        );
+    }
+    for mesh_name in meshes {
+        let mut scene = load(mesh_name)?;
+        for mesh in &mut scene.meshes {
+            *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
+        }
+        let name = Path::new(mesh_name)
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or(mesh_name)
+            .to_owned();
+        let triangles = std::sync::Arc::new(SceneAccel::build(&scene, &BuildSettings::default()));
+        let mut rows = vec![{
+            let (a, b) = (triangles.clone(), triangles.clone());
+            PairingRow {
+                method: "unpaired".into(),
+                pair_seconds: 0.0,
+                pair_ratio: 0.0,
+                accel: Box::new(move |rays| trace_closest::<NoCounters>(&*a, rays).0),
+                counted: Box::new(move |work| workload::measure(&*b, work, 1)),
+            }
+        }];
+        for &method in &all_methods {
+            let settings = PairSettings {
+                method,
+                prescan_threshold: None,
+                ..PairSettings::default()
+            };
+            let mut seconds = Vec::new();
+            let mut pairings = Vec::new();
+            for _ in 0..runs.max(1) {
+                let start = std::time::Instant::now();
+                pairings = scene
+                    .meshes
+                    .iter()
+                    .map(|m| rtmesh::pair::pair(m, &settings).0)
+                    .collect();
+                seconds.push(start.elapsed().as_secs_f64());
+            }
+            let paired: usize = pairings.iter().map(Pairing::paired_triangles).sum();
+            let accel = std::sync::Arc::new(SceneAccel::build_paired(
+                &scene,
+                &pairings,
+                &BuildSettings::default(),
+            ));
+            let (a, b) = (accel.clone(), accel);
+            rows.push(PairingRow {
+                method: method.to_string(),
+                pair_seconds: workload::median(&seconds),
+                pair_ratio: paired as f64 / scene.instanced_triangle_count().max(1) as f64,
+                accel: Box::new(move |rays| trace_closest::<NoCounters>(&*a, rays).0),
+                counted: Box::new(move |work| workload::measure(&*b, work, 1)),
+            });
+        }
+        for &kind in kinds {
+            let work = Workload::generate(kind, &scene, &*triangles, width, height, 1);
+            let reference = (rows[0].accel)(&work.rays);
+            let mut seconds = vec![Vec::new(); rows.len()];
+            for _ in 0..runs.max(1) {
+                for (row, times) in rows.iter().zip(&mut seconds) {
+                    let start = std::time::Instant::now();
+                    std::hint::black_box((row.accel)(&work.rays));
+                    times.push(start.elapsed().as_secs_f64());
+                }
+            }
+            let results: Vec<(rtmesh::trace::TraceRun, f64, f64)> = rows
+                .iter()
+                .zip(&seconds)
+                .map(|(row, times)| {
+                    let hits = (row.accel)(&work.rays);
+                    let same = hits
+                        .iter()
+                        .zip(&reference)
+                        .filter(|(a, b)| a.triangle == b.triangle)
+                        .count() as f64
+                        / work.rays.len().max(1) as f64;
+                    let median = workload::median(times);
+                    (
+                        (row.counted)(&work),
+                        work.rays.len() as f64 / median / 1e6,
+                        same,
+                    )
+                })
+                .collect();
+            let base = &results[1]; // window:2
+            let tests = |r: &rtmesh::trace::TraceRun| r.tri_tests_per_ray + r.pair_tests_per_ray;
+            let delta = |x: f64, y: f64| 100.0 * (x / y.max(1e-12) - 1.0);
+            for (row, (run, mrays, same)) in rows.iter().zip(&results) {
+                let d_box = delta(run.box_tests_per_ray, base.0.box_tests_per_ray);
+                let d_tests = delta(tests(run), tests(&base.0));
+                let d_mrays = delta(*mrays, base.1);
+                if json {
+                    println!(
+                        "{}",
+                        serde_json::json!({
+                            "mesh": name, "method": row.method, "workload": kind.name(),
+                            "rays": run.rays, "threads": rayon::current_num_threads(),
+                            "pair_seconds": row.pair_seconds, "pair_ratio": row.pair_ratio,
+                            "box_tests_per_ray": run.box_tests_per_ray,
+                            "tri_tests_per_ray": run.tri_tests_per_ray,
+                            "pair_tests_per_ray": run.pair_tests_per_ray,
+                            "mrays_per_s": mrays, "delta_box_percent": d_box,
+                            "delta_tests_percent": d_tests, "delta_mrays_percent": d_mrays,
+                            "same_hits": same,
+                        })
+                    );
+                } else {
+                    println!(
+                        "{:<20} {:<14} {:>9.4} {:>7.2}% {:>8} {:>8.2} {:>9.3} {:>9.3} {:>8.2} {:>6.1}% {:>6.1}% {:>6.1}% {:>6.2}%",
+                        name, format!("{} {}", row.method, kind.name()), row.pair_seconds, 100.0 * row.pair_ratio,
+                        run.rays, run.box_tests_per_ray, run.tri_tests_per_ray, run.pair_tests_per_ray, mrays,
+                        d_box, d_tests, d_mrays, 100.0 * same
+                    );
+                }
+            }
+        }
     }
     Ok(())
 }

@@ -76,3 +76,60 @@ fn demo_runs() {
     let demo = json_of(&["demo", "--json"]);
     assert_eq!(demo.as_array().map(Vec::len), Some(4));
 }
+
+#[test]
+fn pair_writes_pairs_first_and_reports_the_documented_keys() {
+    let dir = std::env::temp_dir().join(format!("rtmesh-cli-pair-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("grid-paired.ply");
+    let report = json_of(&[
+        "pair",
+        "builtin:grid",
+        "-o",
+        out.to_str().unwrap(),
+        "--no-prescan",
+        "--json",
+    ]);
+    for key in [
+        "triangles",
+        "paired_triangles",
+        "pair_ratio",
+        "method",
+        "seconds",
+        "prescan_skipped",
+    ] {
+        assert!(report.get(key).is_some(), "missing {key}");
+    }
+    assert_eq!(report["method"], "sah");
+    assert_eq!(report["triangles"], 2 * 128 * 128);
+    assert!(report["pair_ratio"].as_f64().unwrap() > 0.8, "{report}");
+    // Pairing the written file again: the pre-scan sees it is already paired.
+    let again = json_of(&["pair", out.to_str().unwrap(), "--json"]);
+    assert_eq!(again["prescan_skipped"], true);
+    let bad = rtmesh(&["pair", "builtin:grid", "--method", "window:0"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("window:N"));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn trace_with_pair_leaves_hits_what_triangle_leaves_hit() {
+    let args = |leaf| {
+        json_of(&[
+            "trace",
+            "builtin:blob",
+            "--size",
+            "64x64",
+            "--runs",
+            "1",
+            "--leaf",
+            leaf,
+            "--json",
+        ])
+    };
+    let (tri, pair) = (args("tri"), args("pair"));
+    assert_eq!(tri["hits"], pair["hits"]);
+    assert_eq!(tri["pair_tests_per_ray"], 0.0);
+    assert!(pair["pair_tests_per_ray"].as_f64().unwrap() > 0.0);
+    assert!(pair["bvh"]["nodes"].as_u64() < tri["bvh"]["nodes"].as_u64());
+}

@@ -6,8 +6,9 @@
 
 use glam::Vec3;
 use rtmesh::bvh::BuildSettings;
+use rtmesh::pair::{PairMethod, PairSettings};
 use rtmesh::trace::workload::{trace_closest, trace_occluded};
-use rtmesh::trace::{Hit, NoCounters, RayCounters, RayKind, SceneAccel, Tracer, Workload};
+use rtmesh::trace::{Hit, NoCounters, Pair4, RayCounters, RayKind, SceneAccel, Tracer, Workload};
 use rtmesh::{Ray, Scene, TriMesh};
 
 /// Double-precision Möller–Trumbore: (t, u, v) of a hit inside (t_min, t_max).
@@ -143,17 +144,24 @@ fn check_all_workloads(name: &str, scene: &Scene, size: usize) {
     for blas in &accel.blas {
         blas.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
     }
+    check_tracer(name, scene, size, &accel);
+}
+
+/// Every workload through `accel` (rays generated with triangle leaves) against brute
+/// force.
+fn check_tracer(name: &str, scene: &Scene, size: usize, accel: &impl Tracer) {
+    let triangles = SceneAccel::build(scene, &BuildSettings::default());
     for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
-        let work = Workload::generate(kind, scene, &accel, size, size, 7);
+        let work = Workload::generate(kind, scene, &triangles, size, size, 7);
         if kind == RayKind::Shadow {
-            let (occluded, _) = trace_occluded::<NoCounters>(&accel, &work.rays);
+            let (occluded, _) = trace_occluded::<NoCounters>(accel, &work.rays);
             let ties = check_occluded(scene, &work.rays, &occluded);
             assert!(
                 ties * 1000 <= work.rays.len().max(1000),
                 "{name} shadow: {ties} ties"
             );
         } else {
-            let (hits, _) = trace_closest::<NoCounters>(&accel, &work.rays);
+            let (hits, _) = trace_closest::<NoCounters>(accel, &work.rays);
             let agreement = check_closest(scene, &work.rays, &hits);
             assert!(
                 agreement.ties * 200 <= agreement.rays.max(200),
@@ -186,6 +194,94 @@ fn procedural_scenes_match_brute_force() {
         64,
     );
     check_all_workloads("room", &rtmesh::scenes::room(), 48);
+}
+
+/// The scene welded, and its pair-leaf accel by `method`.
+fn paired(scene: &Scene, method: PairMethod) -> (Scene, SceneAccel<Pair4>) {
+    let mut welded = scene.clone();
+    let settings = PairSettings {
+        method,
+        prescan_threshold: None,
+        ..PairSettings::default()
+    };
+    let pairings: Vec<_> = welded
+        .meshes
+        .iter_mut()
+        .map(|mesh| {
+            *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
+            rtmesh::pair::pair(mesh, &settings).0
+        })
+        .collect();
+    let accel = SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());
+    (welded, accel)
+}
+
+#[test]
+fn pair_leaves_match_brute_force() {
+    let mut scenes = vec![
+        (
+            "blob",
+            Scene::from_mesh(rtmesh::scenes::scan_blob(3_000, 3)),
+        ),
+        ("grid", Scene::from_mesh(rtmesh::scenes::rotated_grid(24))),
+        (
+            "cylinder",
+            Scene::from_mesh(rtmesh::scenes::fan_cylinder(48)),
+        ),
+        ("room", rtmesh::scenes::room()),
+    ];
+    if let Some(dir) = rtmesh::data::mesh_data_dir() {
+        for file in ["woody.obj", "suzanne.obj", "beetle.obj"] {
+            scenes.push((file, rtmesh::io::read(&dir.join(file)).unwrap()));
+        }
+    }
+    for (name, scene) in &scenes {
+        for method in [PairMethod::Sah, PairMethod::Window(2), PairMethod::SahMax] {
+            let (welded, accel) = paired(scene, method);
+            for blas in &accel.blas {
+                blas.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+            }
+            check_tracer(&format!("{name} pairs {method}"), &welded, 48, &accel);
+        }
+    }
+}
+
+#[test]
+fn paired_mesh_traces_the_same_input_triangles() {
+    // The reordered output mesh, traced with triangle leaves and mapped back through
+    // `input_triangle`, hits what the input hits (edge ties aside); so do pair leaves.
+    let mesh = rtmesh::mesh::weld_exact(&rtmesh::scenes::scan_blob(20_000, 9)).mesh;
+    let scene = Scene::from_mesh(mesh.clone());
+    let pairing = rtmesh::pair::greedy::pair_sah(&mesh);
+    let out = rtmesh::pair::reorder(&mesh, &mesh, &pairing);
+    let output_scene = Scene::from_mesh(out.mesh.clone());
+    let input = SceneAccel::build(&scene, &BuildSettings::default());
+    let output = SceneAccel::build(&output_scene, &BuildSettings::default());
+    let pairs = SceneAccel::build_paired(&scene, &[pairing], &BuildSettings::default());
+    for kind in [RayKind::Primary, RayKind::Diffuse] {
+        let work = Workload::generate(kind, &scene, &input, 128, 128, 3);
+        let (expected, _) = trace_closest::<NoCounters>(&input, &work.rays);
+        let (written, _) = trace_closest::<NoCounters>(&output, &work.rays);
+        let (paired, _) = trace_closest::<NoCounters>(&pairs, &work.rays);
+        let mut ties = 0;
+        for (i, ray) in work.rays.iter().enumerate() {
+            let mapped = written[i]
+                .is_hit()
+                .then(|| out.input_triangle[written[i].triangle as usize]);
+            for got in [mapped, paired[i].is_hit().then_some(paired[i].triangle)] {
+                let want = expected[i].is_hit().then_some(expected[i].triangle);
+                if got != want {
+                    let near_edge = [got, want]
+                        .into_iter()
+                        .flatten()
+                        .any(|t| edge_distance(ray, mesh.corners(t as usize)) < 1e-4);
+                    assert!(near_edge, "{kind:?} ray {i}: {got:?} vs {want:?}");
+                    ties += 1;
+                }
+            }
+        }
+        assert!(ties * 1000 <= work.rays.len(), "{kind:?}: {ties} edge ties");
+    }
 }
 
 #[test]

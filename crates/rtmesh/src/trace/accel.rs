@@ -4,14 +4,16 @@
 //! space (the direction is not renormalised, so `t` means the same in both spaces) and
 //! traverses that mesh's BVH. A scene of one untransformed mesh skips the TLAS.
 
+use super::pair::{mesh_pairs, Pair4, PAIR4_LANES};
 #[cfg(target_arch = "x86_64")]
 use super::traverse::AvxNodeTest;
 use super::traverse::{any_hit, closest_hit, NodeTest, PortableNodeTest};
 use super::triangle::{Triangle4, TRIANGLE4_LANES};
-use super::{Counters, Hit, RayQuery, Tracer, Triangle};
+use super::{Counters, Hit, LeafBlock, RayQuery, Tracer, Triangle};
 use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive};
 use crate::geom::{Aabb, Ray};
 use crate::mesh::{Scene, TriMesh};
+use crate::pair::Pairing;
 use glam::Affine3A;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -74,11 +76,12 @@ pub struct AccelStats {
     pub depth: usize,
 }
 
-/// The traceable form of a [`Scene`].
+/// The traceable form of a [`Scene`], with leaf blocks `L`: [`Triangle4`] (the
+/// default) or [`Pair4`] (triangle pairs).
 #[derive(Clone, Debug)]
-pub struct SceneAccel {
+pub struct SceneAccel<L = Triangle4> {
     /// One BVH per mesh, over its valid triangles, leaves packed in 4-wide blocks.
-    pub blas: Vec<Bvh<Triangle4>>,
+    pub blas: Vec<Bvh<L>>,
     /// BVH over instances, absent for a scene of one untransformed mesh.
     pub tlas: Option<Bvh<InstanceLeaf>>,
     /// Seconds the whole build took.
@@ -96,7 +99,7 @@ pub fn mesh_triangles(mesh: &TriMesh) -> Vec<Triangle> {
         .collect()
 }
 
-impl SceneAccel {
+impl SceneAccel<Triangle4> {
     /// Build every level with `settings`.
     pub fn build(scene: &Scene, settings: &BuildSettings) -> Self {
         let start = std::time::Instant::now();
@@ -112,23 +115,7 @@ impl SceneAccel {
                 Bvh::build(mesh_triangles(mesh), &triangle_settings).map_leaves(Triangle4::new)
             })
             .collect();
-        let single =
-            scene.instances.len() == 1 && scene.instances[0].transform == Affine3A::IDENTITY;
-        let tlas = (!single).then(|| {
-            let leaves = scene
-                .instances
-                .iter()
-                .enumerate()
-                .map(|(i, inst)| InstanceLeaf::new(i, inst, blas[inst.mesh].bounds()))
-                .collect();
-            Bvh::build(leaves, settings)
-        });
-        Self {
-            blas,
-            tlas,
-            build_seconds: start.elapsed().as_secs_f64(),
-            triangle_count: scene.instanced_triangle_count(),
-        }
+        Self::assemble(scene, settings, blas, start)
     }
 
     /// Follow moved vertices without rebuilding: `scene` must have the topology this
@@ -161,6 +148,57 @@ impl SceneAccel {
             tlas.refit();
         }
     }
+}
+
+impl SceneAccel<Pair4> {
+    /// Build with triangle-pair leaves: `pairings[m]` pairs mesh `m` of `scene` (found
+    /// on these very meshes, so paired triangles share vertex indices).
+    pub fn build_paired(scene: &Scene, pairings: &[Pairing], settings: &BuildSettings) -> Self {
+        assert_eq!(pairings.len(), scene.meshes.len(), "one pairing per mesh");
+        let start = std::time::Instant::now();
+        let pair_settings = BuildSettings {
+            leaf_block: TRIANGLE_LEAF_BLOCK,
+            max_leaf_size: PAIR4_LANES,
+            ..settings.clone()
+        };
+        let blas: Vec<Bvh<Pair4>> = scene
+            .meshes
+            .par_iter()
+            .zip(pairings)
+            .map(|(mesh, pairing)| {
+                Bvh::build(mesh_pairs(mesh, pairing), &pair_settings).map_leaves(Pair4::new)
+            })
+            .collect();
+        Self::assemble(scene, settings, blas, start)
+    }
+}
+
+impl<L: LeafBlock> SceneAccel<L> {
+    /// Add the TLAS (when the scene needs one) over built BLASes.
+    fn assemble(
+        scene: &Scene,
+        settings: &BuildSettings,
+        blas: Vec<Bvh<L>>,
+        start: std::time::Instant,
+    ) -> Self {
+        let single =
+            scene.instances.len() == 1 && scene.instances[0].transform == Affine3A::IDENTITY;
+        let tlas = (!single).then(|| {
+            let leaves = scene
+                .instances
+                .iter()
+                .enumerate()
+                .map(|(i, inst)| InstanceLeaf::new(i, inst, blas[inst.mesh].bounds()))
+                .collect();
+            Bvh::build(leaves, settings)
+        });
+        Self {
+            blas,
+            tlas,
+            build_seconds: start.elapsed().as_secs_f64(),
+            triangle_count: scene.instanced_triangle_count(),
+        }
+    }
 
     /// Nodes, leaves, SAH cost, bytes, build time.
     pub fn stats(&self) -> AccelStats {
@@ -169,7 +207,7 @@ impl SceneAccel {
         let primitive_bytes: usize = self
             .blas
             .iter()
-            .map(|b| b.primitives.len() * std::mem::size_of::<Triangle4>())
+            .map(|b| b.primitives.len() * std::mem::size_of::<L>())
             .sum::<usize>()
             + self.tlas.as_ref().map_or(0, |t| {
                 t.primitives.len() * std::mem::size_of::<InstanceLeaf>()
@@ -191,7 +229,7 @@ impl SceneAccel {
     }
 }
 
-impl SceneAccel {
+impl<L: LeafBlock> SceneAccel<L> {
     /// Closest hit of `ray` with node test `T`.
     #[inline(always)]
     fn intersect_with<T: NodeTest, C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
@@ -201,7 +239,7 @@ impl SceneAccel {
         match &self.tlas {
             None => {
                 if let Some(bvh) = self.blas.first() {
-                    if intersect_blas::<T, _>(bvh, &query, &mut hit, counters) {
+                    if intersect_blas::<T, _, _>(bvh, &query, &mut hit, counters) {
                         hit.instance = 0;
                         hit.geometry = 0;
                     }
@@ -217,7 +255,7 @@ impl SceneAccel {
                         let mut found = false;
                         for instance in instances {
                             let local = transform_query(&query, &instance.world_to_object);
-                            if intersect_blas::<T, _>(
+                            if intersect_blas::<T, _, _>(
                                 &self.blas[instance.mesh as usize],
                                 &local,
                                 &mut hit,
@@ -248,7 +286,7 @@ impl SceneAccel {
             None => self
                 .blas
                 .first()
-                .is_some_and(|bvh| occluded_blas::<T, _>(bvh, &query, ray.t_max, counters)),
+                .is_some_and(|bvh| occluded_blas::<T, _, _>(bvh, &query, ray.t_max, counters)),
             Some(tlas) => any_hit::<T, _, _>(
                 tlas,
                 &query,
@@ -257,7 +295,7 @@ impl SceneAccel {
                 |instances, t_max, counters| {
                     instances.iter().any(|instance| {
                         let local = transform_query(&query, &instance.world_to_object);
-                        occluded_blas::<T, _>(
+                        occluded_blas::<T, _, _>(
                             &self.blas[instance.mesh as usize],
                             &local,
                             t_max,
@@ -297,7 +335,7 @@ fn has_avx() -> bool {
     }
 }
 
-impl Tracer for SceneAccel {
+impl<L: LeafBlock> Tracer for SceneAccel<L> {
     /// Closest hit of `ray`, counting work into `counters`; the AVX node test where the
     /// CPU has it, the portable one elsewhere (bit-identical results).
     #[inline]
@@ -333,8 +371,8 @@ fn transform_query(query: &RayQuery, world_to_object: &Affine3A) -> RayQuery {
 }
 
 #[inline(always)]
-fn intersect_blas<T: NodeTest, C: Counters>(
-    bvh: &Bvh<Triangle4>,
+fn intersect_blas<T: NodeTest, L: LeafBlock, C: Counters>(
+    bvh: &Bvh<L>,
     query: &RayQuery,
     hit: &mut Hit,
     counters: &mut C,
@@ -348,7 +386,7 @@ fn intersect_blas<T: NodeTest, C: Counters>(
         |blocks, t_max, counters| {
             let mut found = false;
             for block in blocks {
-                counters.triangle_tests(block.count);
+                block.count_tests(counters);
                 if block.intersect_into(query, hit) {
                     *t_max = hit.t;
                     found = true;
@@ -360,15 +398,15 @@ fn intersect_blas<T: NodeTest, C: Counters>(
 }
 
 #[inline(always)]
-fn occluded_blas<T: NodeTest, C: Counters>(
-    bvh: &Bvh<Triangle4>,
+fn occluded_blas<T: NodeTest, L: LeafBlock, C: Counters>(
+    bvh: &Bvh<L>,
     query: &RayQuery,
     t_max: f32,
     counters: &mut C,
 ) -> bool {
     any_hit::<T, _, _>(bvh, query, t_max, counters, |blocks, t_max, counters| {
         blocks.iter().any(|block| {
-            counters.triangle_tests(block.count);
+            block.count_tests(counters);
             block.occludes(query, t_max)
         })
     })

@@ -8,14 +8,17 @@
 
 pub mod accel;
 pub mod compare;
+pub mod pair;
 pub mod traverse;
 pub mod triangle;
 pub mod workload;
 
 pub use accel::SceneAccel;
+pub use pair::{Pair4, TrianglePair};
 pub use triangle::Triangle;
 pub use workload::{Camera, RayKind, TraceRun, Workload};
 
+use crate::bvh::Primitive;
 use crate::geom::Ray;
 use glam::Vec3;
 use serde::Serialize;
@@ -63,6 +66,8 @@ pub trait Counters: Default + Send {
     fn box_tests(&mut self, n: u32);
     /// `n` ray–triangle tests.
     fn triangle_tests(&mut self, n: u32);
+    /// `n` ray–pair tests (one test of a triangle pair's two triangles).
+    fn pair_tests(&mut self, n: u32);
     /// One node visited.
     fn node_visited(&mut self);
     /// Add another set of counts.
@@ -80,6 +85,8 @@ impl Counters for NoCounters {
     #[inline(always)]
     fn triangle_tests(&mut self, _: u32) {}
     #[inline(always)]
+    fn pair_tests(&mut self, _: u32) {}
+    #[inline(always)]
     fn node_visited(&mut self) {}
     #[inline(always)]
     fn merge(&mut self, _: &Self) {}
@@ -92,6 +99,8 @@ pub struct RayCounters {
     pub box_tests: u64,
     /// Ray–triangle tests.
     pub triangle_tests: u64,
+    /// Ray–pair tests (each tests two triangles sharing an edge).
+    pub pair_tests: u64,
     /// Inner nodes visited.
     pub nodes_visited: u64,
 }
@@ -107,14 +116,30 @@ impl Counters for RayCounters {
         self.triangle_tests += n as u64;
     }
     #[inline(always)]
+    fn pair_tests(&mut self, n: u32) {
+        self.pair_tests += n as u64;
+    }
+    #[inline(always)]
     fn node_visited(&mut self) {
         self.nodes_visited += 1;
     }
     fn merge(&mut self, other: &Self) {
         self.box_tests += other.box_tests;
         self.triangle_tests += other.triangle_tests;
+        self.pair_tests += other.pair_tests;
         self.nodes_visited += other.nodes_visited;
     }
+}
+
+/// A packed BVH leaf block the tracer tests a ray against: [`triangle::Triangle4`] or
+/// [`pair::Pair4`].
+pub trait LeafBlock: Primitive + Clone + Send + Sync {
+    /// The closest primitive hit before `hit.t`, recorded into `hit`.
+    fn intersect_into(&self, ray: &RayQuery, hit: &mut Hit) -> bool;
+    /// Whether anything in the block is hit inside `(t_min, t_max)`.
+    fn occludes(&self, ray: &RayQuery, t_max: f32) -> bool;
+    /// Count one test of this block.
+    fn count_tests<C: Counters>(&self, counters: &mut C);
 }
 
 /// Anything that traces single rays: rtmesh's [`SceneAccel`], and Embree or other

@@ -9,7 +9,7 @@
 //! full leaves of four and the tree is a level shallower. Both forms evaluate the very
 //! same IEEE operations in the same order, so their hits are bit-identical.
 
-use super::{Hit, RayQuery};
+use super::{Counters, Hit, LeafBlock, RayQuery};
 use crate::bvh::Primitive;
 use crate::geom::Aabb;
 use glam::Vec3;
@@ -108,15 +108,15 @@ pub struct Triangle4 {
 
 /// Three SIMD lanes-of-components: a 4-wide vector of 3D vectors.
 #[derive(Clone, Copy)]
-struct Vec3x4 {
-    x: f32x4,
-    y: f32x4,
-    z: f32x4,
+pub(crate) struct Vec3x4 {
+    pub(crate) x: f32x4,
+    pub(crate) y: f32x4,
+    pub(crate) z: f32x4,
 }
 
 impl Vec3x4 {
     #[inline(always)]
-    fn load(a: &[[f32; 4]; 3]) -> Self {
+    pub(crate) fn load(a: &[[f32; 4]; 3]) -> Self {
         Self {
             x: f32x4::new(a[0]),
             y: f32x4::new(a[1]),
@@ -125,7 +125,7 @@ impl Vec3x4 {
     }
 
     #[inline(always)]
-    fn splat(v: Vec3) -> Self {
+    pub(crate) fn splat(v: Vec3) -> Self {
         Self {
             x: f32x4::splat(v.x),
             y: f32x4::splat(v.y),
@@ -135,7 +135,7 @@ impl Vec3x4 {
 
     /// The same operation order as glam's `Vec3::cross`.
     #[inline(always)]
-    fn cross(self, rhs: Self) -> Self {
+    pub(crate) fn cross(self, rhs: Self) -> Self {
         Self {
             x: self.y * rhs.z - rhs.y * self.z,
             y: self.z * rhs.x - rhs.z * self.x,
@@ -145,12 +145,12 @@ impl Vec3x4 {
 
     /// The same operation order as glam's `Vec3::dot`.
     #[inline(always)]
-    fn dot(self, rhs: Self) -> f32x4 {
+    pub(crate) fn dot(self, rhs: Self) -> f32x4 {
         (self.x * rhs.x) + (self.y * rhs.y) + (self.z * rhs.z)
     }
 
     #[inline(always)]
-    fn sub(self, rhs: Self) -> Self {
+    pub(crate) fn sub(self, rhs: Self) -> Self {
         Self {
             x: self.x - rhs.x,
             y: self.y - rhs.y,
@@ -228,10 +228,12 @@ impl Triangle4 {
             & determinant.is_finite();
         (inside.to_bitmask(), t.to_array(), u, v)
     }
+}
 
+impl LeafBlock for Triangle4 {
     /// The closest lane hit before `hit.t`, recorded into `hit`.
     #[inline(always)]
-    pub fn intersect_into(&self, ray: &RayQuery, hit: &mut Hit) -> bool {
+    fn intersect_into(&self, ray: &RayQuery, hit: &mut Hit) -> bool {
         let (mut mask, t, u, v) = self.test(ray, hit.t);
         if mask == 0 {
             return false;
@@ -254,8 +256,13 @@ impl Triangle4 {
 
     /// Whether any lane is hit inside `(t_min, t_max)`.
     #[inline(always)]
-    pub fn occludes(&self, ray: &RayQuery, t_max: f32) -> bool {
+    fn occludes(&self, ray: &RayQuery, t_max: f32) -> bool {
         self.test(ray, t_max).0 != 0
+    }
+
+    #[inline(always)]
+    fn count_tests<C: Counters>(&self, counters: &mut C) {
+        counters.triangle_tests(self.count);
     }
 }
 

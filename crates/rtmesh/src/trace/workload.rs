@@ -13,7 +13,7 @@
 //! Secondary rays start `1e-4 ·` diagonal off the surface. Pixels whose primary ray
 //! misses have no secondary ray.
 
-use super::{Counters, Hit, NoCounters, RayCounters, SceneAccel, Tracer};
+use super::{Counters, Hit, NoCounters, RayCounters, Tracer};
 use crate::geom::{Aabb, Ray};
 use crate::mesh::Scene;
 use crate::random::SplitMix64;
@@ -169,7 +169,7 @@ impl Workload {
     pub fn generate(
         kind: RayKind,
         scene: &Scene,
-        accel: &SceneAccel,
+        accel: &impl Tracer,
         width: usize,
         height: usize,
         seed: u64,
@@ -324,6 +324,8 @@ pub struct TraceRun {
     pub box_tests_per_ray: f64,
     /// Mean triangle tests per ray.
     pub tri_tests_per_ray: f64,
+    /// Mean pair tests per ray (pair leaves: one test covers two triangles).
+    pub pair_tests_per_ray: f64,
     /// Mean inner nodes visited per ray.
     pub nodes_per_ray: f64,
     /// Rays that hit (or are occluded).
@@ -391,6 +393,7 @@ pub fn measure(tracer: &impl Tracer, workload: &Workload, runs: usize) -> TraceR
         mrays_per_s: rays.len() as f64 / seconds.max(1e-12) / 1e6,
         box_tests_per_ray: total.box_tests as f64 / n,
         tri_tests_per_ray: total.triangle_tests as f64 / n,
+        pair_tests_per_ray: total.pair_tests as f64 / n,
         nodes_per_ray: total.nodes_visited as f64 / n,
         hits,
         hit_checksum: checksum,
