@@ -4,22 +4,8 @@
 use criterion::{criterion_group, criterion_main, Criterion};
 use rtmesh::mesh::{weld_exact, EdgeAdjacency};
 
-fn dragon_or_blob() -> (String, rtmesh::TriMesh) {
-    let dir = rtmesh::data::mesh_data_dir().unwrap_or_default();
-    match rtmesh::io::read(&dir.join("dragon_vrip.ply")) {
-        Ok(scene) => ("dragon_vrip (871k tris)".into(), scene.flatten()),
-        Err(e) => {
-            eprintln!("note: {e}; using the procedural blob");
-            (
-                "blob (100k tris)".into(),
-                rtmesh::scenes::scan_blob(100_000, 1),
-            )
-        }
-    }
-}
-
 fn bench(c: &mut Criterion) {
-    let (name, mesh) = dragon_or_blob();
+    let (name, mesh) = rtmesh::data::dragon_or_blob();
     let welded = weld_exact(&mesh).mesh;
     let mut group = c.benchmark_group("topology");
     group.sample_size(20);

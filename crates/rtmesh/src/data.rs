@@ -30,3 +30,19 @@ pub fn mesh_data_dir() -> Option<PathBuf> {
     eprintln!("note: no mesh data at {looked} or above; data test skipped (set RTMESH_DATA)");
     None
 }
+
+/// The full Stanford dragon (871k triangles) when the data is present, else the
+/// 100k-triangle procedural blob, with a label: the benches' large mesh.
+pub fn dragon_or_blob() -> (String, crate::TriMesh) {
+    let dir = mesh_data_dir().unwrap_or_default();
+    match crate::io::read(&dir.join("dragon_vrip.ply")) {
+        Ok(scene) => ("dragon_vrip (871k tris)".into(), scene.flatten()),
+        Err(e) => {
+            eprintln!("note: {e}; using the procedural blob");
+            (
+                "blob (100k tris)".into(),
+                crate::scenes::scan_blob(100_000, 1),
+            )
+        }
+    }
+}
