@@ -405,7 +405,7 @@ fn run(cli: Cli) -> Result<()> {
                 let triangles = SceneAccel::build(&scene, &BuildSettings::default());
                 let work = Workload::generate(rays, &scene, &triangles, width, height, 1);
                 let (stats, run) = if leaf == "pair" {
-                    let (welded, pairings) = pair_for_tracing(&scene, pair_method);
+                    let (welded, pairings) = rtmesh::pair::weld_and_pair(&scene, pair_method);
                     let pairs =
                         SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());
                     (pairs.stats(), workload::measure(&pairs, &work, runs))
@@ -569,25 +569,6 @@ fn run(cli: Cli) -> Result<()> {
             }
         }
     }
-}
-
-/// The welded scene and one pairing per mesh, for pair leaves.
-fn pair_for_tracing(scene: &Scene, method: PairMethod) -> (Scene, Vec<Pairing>) {
-    let mut welded = scene.clone();
-    let settings = PairSettings {
-        method,
-        prescan_threshold: None,
-        ..PairSettings::default()
-    };
-    let pairings = welded
-        .meshes
-        .iter_mut()
-        .map(|mesh| {
-            *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
-            rtmesh::pair::pair(mesh, &settings).0
-        })
-        .collect();
-    (welded, pairings)
 }
 
 /// Weld and pair every geometry of `scene` in place (each mesh becomes its paired,

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use rtmesh::bvh::BuildSettings;
-use rtmesh::pair::{PairMethod, PairSettings};
+use rtmesh::pair::PairMethod;
 use rtmesh::trace::workload::{trace_closest, trace_occluded};
 use rtmesh::trace::{Hit, NoCounters, Pair4, RayCounters, RayKind, SceneAccel, Tracer, Workload};
 use rtmesh::{Ray, Scene, TriMesh};
@@ -198,20 +198,7 @@ fn procedural_scenes_match_brute_force() {
 
 /// The scene welded, and its pair-leaf accel by `method`.
 fn paired(scene: &Scene, method: PairMethod) -> (Scene, SceneAccel<Pair4>) {
-    let mut welded = scene.clone();
-    let settings = PairSettings {
-        method,
-        prescan_threshold: None,
-        ..PairSettings::default()
-    };
-    let pairings: Vec<_> = welded
-        .meshes
-        .iter_mut()
-        .map(|mesh| {
-            *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
-            rtmesh::pair::pair(mesh, &settings).0
-        })
-        .collect();
+    let (welded, pairings) = rtmesh::pair::weld_and_pair(scene, method);
     let accel = SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());
     (welded, accel)
 }

@@ -47,7 +47,7 @@ pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
         let corners = mesh.corners(t);
         for k in 0..3 {
             let (p, q) = (corners[k], corners[(k + 1) % 3]);
-            let bbsa = super::edge_bbsa(p.min(q), p.max(q));
+            let bbsa = super::edge_bbsa(p, q); // symmetric in p and q
             let mid = (p + q) * 0.5;
             let key = (bbsa.to_bits() >> (31 - FIELD_BITS)) as u128;
             let key = (key << FIELD_BITS) | quantise(mid.x, 0);

@@ -212,6 +212,26 @@ pub fn pair(mesh: &TriMesh, settings: &PairSettings) -> (Pairing, PairReport) {
     (pairing, report)
 }
 
+/// Every mesh of `scene` welded by exact position and paired with `method` (no
+/// pre-scan): the scene to build pair leaves from, and one pairing per mesh.
+pub fn weld_and_pair(scene: &crate::Scene, method: PairMethod) -> (crate::Scene, Vec<Pairing>) {
+    let mut welded = scene.clone();
+    let settings = PairSettings {
+        method,
+        prescan_threshold: None,
+        ..PairSettings::default()
+    };
+    let pairings = welded
+        .meshes
+        .iter_mut()
+        .map(|mesh| {
+            *mesh = crate::mesh::weld_exact(mesh).mesh;
+            pair(mesh, &settings).0
+        })
+        .collect();
+    (welded, pairings)
+}
+
 /// The paper's pre-scan: the consecutive couples `(2i, 2i + 1)` of the input order
 /// that are pairable. When they cover most triangles the input was paired before.
 pub fn prescan(mesh: &TriMesh) -> Pairing {
