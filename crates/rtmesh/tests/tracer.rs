@@ -7,27 +7,16 @@
 use glam::Vec3;
 use rtmesh::bvh::BuildSettings;
 use rtmesh::pair::PairMethod;
+use rtmesh::trace::intersect::reference_f64;
 use rtmesh::trace::workload::{trace_closest, trace_occluded};
 use rtmesh::trace::{Hit, NoCounters, Pair4, RayCounters, RayKind, SceneAccel, Tracer, Workload};
 use rtmesh::{Ray, Scene, TriMesh};
 
 /// Double-precision Möller–Trumbore: (t, u, v) of a hit inside (t_min, t_max).
 fn intersect_f64(ray: &Ray, corners: [Vec3; 3]) -> Option<(f64, f64, f64)> {
-    let [a, b, c] = corners.map(|p| p.as_dvec3());
-    let (o, d) = (ray.origin.as_dvec3(), ray.direction.as_dvec3());
-    let (e1, e2) = (b - a, c - a);
-    let p = d.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let s = o - a;
-    let u = s.dot(p) / det;
-    let q = s.cross(e1);
-    let v = d.dot(q) / det;
-    let t = e2.dot(q) / det;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > ray.t_min as f64 && t < ray.t_max as f64)
-        .then_some((t, u, v))
+    reference_f64(ray, corners).filter(|&(t, u, v)| {
+        u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > ray.t_min as f64 && t < ray.t_max as f64
+    })
 }
 
 /// World-space triangles of a scene with their (instance, triangle) ids.

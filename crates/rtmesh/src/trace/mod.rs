@@ -8,6 +8,8 @@
 
 pub mod accel;
 pub mod compare;
+pub mod intersect;
+pub mod lanes;
 pub mod pair;
 pub mod traverse;
 pub mod triangle;

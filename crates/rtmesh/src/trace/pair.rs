@@ -17,7 +17,7 @@
 //! quad convention (`(v0, v1, v2)` or `(v2, v1, v3)`), the order
 //! [`crate::pair::reorder`] writes.
 
-use super::triangle::Vec3x4;
+use super::lanes::V3;
 use super::{Counters, Hit, LeafBlock, RayQuery};
 use crate::bvh::Primitive;
 use crate::geom::Aabb;
@@ -154,10 +154,10 @@ impl Pair4 {
     #[inline(always)]
     #[allow(clippy::type_complexity)]
     fn test(&self, ray: &RayQuery, t_max: f32) -> [(u32, [f32; 4], f32x4, f32x4); 2] {
-        let direction = Vec3x4::splat(ray.direction);
-        let to_origin = Vec3x4::splat(ray.origin).sub(Vec3x4::load(&self.v1));
-        let s = Vec3x4::load(&self.s);
-        let p = Vec3x4::load(&self.p);
+        let direction = V3::<f32x4>::splat(ray.direction);
+        let to_origin = V3::<f32x4>::splat(ray.origin).sub(V3::from_rows(&self.v1));
+        let s = V3::from_rows(&self.s);
+        let p = V3::from_rows(&self.p);
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         let (t_min, t_max) = (f32x4::splat(ray.t_min), f32x4::splat(t_max));
@@ -181,8 +181,8 @@ impl Pair4 {
         let v_a = shared * inv_a; // weight of v0
         let t_a = p.dot(q_a) * inv_a;
         // B = (v1, v3, v2): edges q and s; first numerator is −shared.
-        let q = Vec3x4::load(&self.q);
-        let det_b = direction.dot(Vec3x4::load(&self.normal_b));
+        let q = V3::from_rows(&self.q);
+        let det_b = direction.dot(V3::from_rows(&self.normal_b));
         let inv_b = one / det_b;
         let u_b = -shared * inv_b; // weight of v3
         let q_b = to_origin.cross(q);

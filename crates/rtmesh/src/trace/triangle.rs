@@ -9,6 +9,8 @@
 //! full leaves of four and the tree is a level shallower. Both forms evaluate the very
 //! same IEEE operations in the same order, so their hits are bit-identical.
 
+use super::intersect::TriangleLanes;
+use super::lanes::V3;
 use super::{Counters, Hit, LeafBlock, RayQuery};
 use crate::bvh::Primitive;
 use crate::geom::Aabb;
@@ -106,59 +108,6 @@ pub struct Triangle4 {
     pub count: u32,
 }
 
-/// Three SIMD lanes-of-components: a 4-wide vector of 3D vectors.
-#[derive(Clone, Copy)]
-pub(crate) struct Vec3x4 {
-    pub(crate) x: f32x4,
-    pub(crate) y: f32x4,
-    pub(crate) z: f32x4,
-}
-
-impl Vec3x4 {
-    #[inline(always)]
-    pub(crate) fn load(a: &[[f32; 4]; 3]) -> Self {
-        Self {
-            x: f32x4::new(a[0]),
-            y: f32x4::new(a[1]),
-            z: f32x4::new(a[2]),
-        }
-    }
-
-    #[inline(always)]
-    pub(crate) fn splat(v: Vec3) -> Self {
-        Self {
-            x: f32x4::splat(v.x),
-            y: f32x4::splat(v.y),
-            z: f32x4::splat(v.z),
-        }
-    }
-
-    /// The same operation order as glam's `Vec3::cross`.
-    #[inline(always)]
-    pub(crate) fn cross(self, rhs: Self) -> Self {
-        Self {
-            x: self.y * rhs.z - rhs.y * self.z,
-            y: self.z * rhs.x - rhs.z * self.x,
-            z: self.x * rhs.y - rhs.x * self.y,
-        }
-    }
-
-    /// The same operation order as glam's `Vec3::dot`.
-    #[inline(always)]
-    pub(crate) fn dot(self, rhs: Self) -> f32x4 {
-        (self.x * rhs.x) + (self.y * rhs.y) + (self.z * rhs.z)
-    }
-
-    #[inline(always)]
-    pub(crate) fn sub(self, rhs: Self) -> Self {
-        Self {
-            x: self.x - rhs.x,
-            y: self.y - rhs.y,
-            z: self.z - rhs.z,
-        }
-    }
-}
-
 impl Triangle4 {
     /// Pack up to four triangles.
     pub fn new(triangles: &[Triangle]) -> Self {
@@ -205,13 +154,13 @@ impl Triangle4 {
     /// `(t_min, t_max)` and their `(t, u, v)`.
     #[inline(always)]
     fn test(&self, ray: &RayQuery, t_max: f32) -> (u32, [f32; 4], f32x4, f32x4) {
-        let direction = Vec3x4::splat(ray.direction);
-        let e1 = Vec3x4::load(&self.e1);
-        let e2 = Vec3x4::load(&self.e2);
+        let direction = V3::<f32x4>::splat(ray.direction);
+        let e1 = V3::from_rows(&self.e1);
+        let e2 = V3::from_rows(&self.e2);
         let p = direction.cross(e2);
         let determinant = e1.dot(p);
         let inverse = f32x4::ONE / determinant;
-        let s = Vec3x4::splat(ray.origin).sub(Vec3x4::load(&self.v0));
+        let s = V3::<f32x4>::splat(ray.origin).sub(V3::from_rows(&self.v0));
         let u = s.dot(p) * inverse;
         let q = s.cross(e1);
         let v = direction.dot(q) * inverse;
@@ -269,5 +218,34 @@ impl LeafBlock for Triangle4 {
 impl Primitive for Triangle4 {
     fn bounds(&self) -> Aabb {
         (0..self.count as usize).fold(Aabb::EMPTY, |b, lane| b.union(self.triangle(lane).bounds()))
+    }
+}
+
+/// A leaf block as intersector lanes: `P0`, `E1`, `E2` as stored, `P1 = P0 + E1`,
+/// `P2 = P0 + E2` and `N = E1 × E2` derived.
+impl TriangleLanes<f32x4> for Triangle4 {
+    #[inline(always)]
+    fn v0(&self) -> V3<f32x4> {
+        V3::from_rows(&self.v0)
+    }
+    #[inline(always)]
+    fn v1(&self) -> V3<f32x4> {
+        self.v0().add(self.e1())
+    }
+    #[inline(always)]
+    fn v2(&self) -> V3<f32x4> {
+        self.v0().add(self.e2())
+    }
+    #[inline(always)]
+    fn e1(&self) -> V3<f32x4> {
+        V3::from_rows(&self.e1)
+    }
+    #[inline(always)]
+    fn e2(&self) -> V3<f32x4> {
+        V3::from_rows(&self.e2)
+    }
+    #[inline(always)]
+    fn normal(&self) -> V3<f32x4> {
+        self.e1().cross(self.e2())
     }
 }

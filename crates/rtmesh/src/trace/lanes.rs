@@ -1,0 +1,329 @@
+//! SIMD lanes for the intersectors: one trait, [`Lanes`], implemented by plain `f32`
+//! (the scalar reference, one triangle at a time, with real early-out branches), by
+//! `wide::f32x4` (4 triangles per test on any CPU: SSE, NEON or scalar emulation) and,
+//! on x86-64, by [`Avx8`] (8 triangles per test in 256-bit AVX registers, only run after
+//! `is_x86_feature_detected!("avx")`). The intersectors are written once over this
+//! trait, so the three forms execute the same IEEE operations in the same order (no
+//! fused multiply-add) and give bit-identical results.
+
+use glam::Vec3;
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Sub};
+use wide::f32x4;
+
+/// A vector of `WIDTH` floats, with comparisons into a lane mask.
+pub trait Lanes:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// The result of a comparison, one truth value per lane.
+    type Mask: Copy + BitAnd<Output = Self::Mask> + BitOr<Output = Self::Mask>;
+    /// Lanes per vector.
+    const WIDTH: usize;
+    /// Every lane `x`.
+    fn splat(x: f32) -> Self;
+    /// Lanes from `values[..WIDTH]`.
+    fn load(values: &[f32]) -> Self;
+    /// The lanes as an array (first `WIDTH` entries used).
+    fn to_array(self) -> [f32; 8];
+    /// `self < rhs` per lane.
+    fn lt(self, rhs: Self) -> Self::Mask;
+    /// `self <= rhs` per lane.
+    fn le(self, rhs: Self) -> Self::Mask;
+    /// `self != rhs` per lane (true for NaN).
+    fn ne(self, rhs: Self) -> Self::Mask;
+    /// Lanes that are neither infinite nor NaN.
+    fn is_finite(self) -> Self::Mask;
+    /// Whether any lane of `mask` is set.
+    fn any(mask: Self::Mask) -> bool;
+    /// Lane `i` of `mask` as bit `i`.
+    fn bitmask(mask: Self::Mask) -> u32;
+}
+
+impl Lanes for f32 {
+    type Mask = bool;
+    const WIDTH: usize = 1;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn load(values: &[f32]) -> Self {
+        values[0]
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f32; 8] {
+        [self, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    }
+    #[inline(always)]
+    fn lt(self, rhs: Self) -> bool {
+        self < rhs
+    }
+    #[inline(always)]
+    fn le(self, rhs: Self) -> bool {
+        self <= rhs
+    }
+    #[inline(always)]
+    fn ne(self, rhs: Self) -> bool {
+        self != rhs
+    }
+    #[inline(always)]
+    fn is_finite(self) -> bool {
+        f32::is_finite(self)
+    }
+    #[inline(always)]
+    fn any(mask: bool) -> bool {
+        mask
+    }
+    #[inline(always)]
+    fn bitmask(mask: bool) -> u32 {
+        mask as u32
+    }
+}
+
+impl Lanes for f32x4 {
+    type Mask = f32x4;
+    const WIDTH: usize = 4;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        f32x4::splat(x)
+    }
+    #[inline(always)]
+    fn load(values: &[f32]) -> Self {
+        f32x4::new(values[..4].try_into().expect("4 floats"))
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f32; 8] {
+        let a = f32x4::to_array(self);
+        [a[0], a[1], a[2], a[3], 0.0, 0.0, 0.0, 0.0]
+    }
+    #[inline(always)]
+    fn lt(self, rhs: Self) -> f32x4 {
+        self.simd_lt(rhs)
+    }
+    #[inline(always)]
+    fn le(self, rhs: Self) -> f32x4 {
+        self.simd_le(rhs)
+    }
+    #[inline(always)]
+    fn ne(self, rhs: Self) -> f32x4 {
+        self.simd_ne(rhs)
+    }
+    #[inline(always)]
+    fn is_finite(self) -> f32x4 {
+        f32x4::is_finite(self)
+    }
+    #[inline(always)]
+    fn any(mask: f32x4) -> bool {
+        mask.any()
+    }
+    #[inline(always)]
+    fn bitmask(mask: f32x4) -> u32 {
+        mask.to_bitmask()
+    }
+}
+
+/// Eight floats in one AVX register. Every method runs AVX instructions, so values of
+/// this type must only be made inside functions compiled with
+/// `#[target_feature(enable = "avx")]` that are called after detecting AVX; it is private
+/// to the crate for that reason.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy)]
+pub(crate) struct Avx8(std::arch::x86_64::__m256);
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::Avx8;
+    use std::arch::x86_64::*;
+    use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Sub};
+
+    macro_rules! binary {
+        ($trait:ident, $method:ident, $intrinsic:ident) => {
+            impl $trait for Avx8 {
+                type Output = Avx8;
+                #[inline(always)]
+                fn $method(self, rhs: Avx8) -> Avx8 {
+                    // SAFETY: `Avx8` values only exist on CPUs with AVX (see its docs).
+                    Avx8(unsafe { $intrinsic(self.0, rhs.0) })
+                }
+            }
+        };
+    }
+    binary!(Add, add, _mm256_add_ps);
+    binary!(Sub, sub, _mm256_sub_ps);
+    binary!(Mul, mul, _mm256_mul_ps);
+    binary!(Div, div, _mm256_div_ps);
+    binary!(BitAnd, bitand, _mm256_and_ps);
+    binary!(BitOr, bitor, _mm256_or_ps);
+
+    impl Neg for Avx8 {
+        type Output = Avx8;
+        #[inline(always)]
+        fn neg(self) -> Avx8 {
+            // SAFETY: as above; flips the sign bit, exactly like scalar negation.
+            Avx8(unsafe { _mm256_xor_ps(self.0, _mm256_set1_ps(-0.0)) })
+        }
+    }
+
+    impl super::Lanes for Avx8 {
+        type Mask = Avx8;
+        const WIDTH: usize = 8;
+        #[inline(always)]
+        fn splat(x: f32) -> Self {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_set1_ps(x) })
+        }
+        #[inline(always)]
+        fn load(values: &[f32]) -> Self {
+            assert!(values.len() >= 8);
+            // SAFETY: as above; 8 floats are readable.
+            Avx8(unsafe { _mm256_loadu_ps(values.as_ptr()) })
+        }
+        #[inline(always)]
+        fn to_array(self) -> [f32; 8] {
+            let mut out = [0.0; 8];
+            // SAFETY: as above; `out` holds 8 floats.
+            unsafe { _mm256_storeu_ps(out.as_mut_ptr(), self.0) };
+            out
+        }
+        #[inline(always)]
+        fn lt(self, rhs: Self) -> Avx8 {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_cmp_ps::<_CMP_LT_OQ>(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn le(self, rhs: Self) -> Avx8 {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_cmp_ps::<_CMP_LE_OQ>(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn ne(self, rhs: Self) -> Avx8 {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_cmp_ps::<_CMP_NEQ_UQ>(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn is_finite(self) -> Avx8 {
+            // SAFETY: as above. |x| < ∞ is false for ±∞ and NaN.
+            Avx8(unsafe {
+                let magnitude = _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0);
+                _mm256_cmp_ps::<_CMP_LT_OQ>(magnitude, _mm256_set1_ps(f32::INFINITY))
+            })
+        }
+        #[inline(always)]
+        fn any(mask: Avx8) -> bool {
+            // SAFETY: as above.
+            unsafe { _mm256_movemask_ps(mask.0) != 0 }
+        }
+        #[inline(always)]
+        fn bitmask(mask: Avx8) -> u32 {
+            // SAFETY: as above.
+            unsafe { _mm256_movemask_ps(mask.0) as u32 }
+        }
+    }
+}
+
+/// Whether this CPU runs [`Avx8`] (detected once, then a cached flag).
+#[inline(always)]
+pub fn has_avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// A 3D vector of lanes: `WIDTH` vectors, structure of arrays.
+#[derive(Clone, Copy)]
+pub struct V3<L> {
+    /// x components.
+    pub x: L,
+    /// y components.
+    pub y: L,
+    /// z components.
+    pub z: L,
+}
+
+impl<L: Lanes> V3<L> {
+    /// Every lane `v`.
+    #[inline(always)]
+    pub fn splat(v: Vec3) -> Self {
+        Self {
+            x: L::splat(v.x),
+            y: L::splat(v.y),
+            z: L::splat(v.z),
+        }
+    }
+
+    /// Lanes from three component arrays, starting at `index`.
+    #[inline(always)]
+    pub fn load(components: &[Vec<f32>; 3], index: usize) -> Self {
+        Self {
+            x: L::load(&components[0][index..]),
+            y: L::load(&components[1][index..]),
+            z: L::load(&components[2][index..]),
+        }
+    }
+
+    /// Lanes from rows `[x, y, z]` of at least `WIDTH` floats each (a leaf block's
+    /// structure-of-arrays layout).
+    #[inline(always)]
+    pub fn from_rows<const N: usize>(rows: &[[f32; N]; 3]) -> Self {
+        Self {
+            x: L::load(&rows[0]),
+            y: L::load(&rows[1]),
+            z: L::load(&rows[2]),
+        }
+    }
+
+    /// Component `axis` (0, 1, 2).
+    #[inline(always)]
+    pub fn axis(&self, axis: usize) -> L {
+        match axis {
+            0 => self.x,
+            1 => self.y,
+            _ => self.z,
+        }
+    }
+
+    /// `self × rhs`, in the operation order of glam's `Vec3::cross`.
+    #[inline(always)]
+    pub fn cross(self, rhs: Self) -> Self {
+        Self {
+            x: self.y * rhs.z - rhs.y * self.z,
+            y: self.z * rhs.x - rhs.z * self.x,
+            z: self.x * rhs.y - rhs.x * self.y,
+        }
+    }
+
+    /// `self · rhs`, in the operation order of glam's `Vec3::dot`.
+    #[inline(always)]
+    pub fn dot(self, rhs: Self) -> L {
+        (self.x * rhs.x) + (self.y * rhs.y) + (self.z * rhs.z)
+    }
+
+    /// `self + rhs`.
+    #[inline(always)]
+    pub fn add(self, rhs: Self) -> Self {
+        Self {
+            x: self.x + rhs.x,
+            y: self.y + rhs.y,
+            z: self.z + rhs.z,
+        }
+    }
+
+    /// `self − rhs`.
+    #[inline(always)]
+    pub fn sub(self, rhs: Self) -> Self {
+        Self {
+            x: self.x - rhs.x,
+            y: self.y - rhs.y,
+            z: self.z - rhs.z,
+        }
+    }
+}
