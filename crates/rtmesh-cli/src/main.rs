@@ -10,6 +10,7 @@ use rtmesh::mesh::MeshInfo;
 use rtmesh::pair::{PairMethod, PairReport, PairSettings, Pairing};
 use rtmesh::render::HeatmapMetric;
 use rtmesh::trace::compare::{CompareSettings, Comparison};
+use rtmesh::trace::intersect::{IntersectorKind, Simd, TriangleSoa};
 use rtmesh::trace::{workload, RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 use std::path::{Path, PathBuf};
@@ -241,6 +242,49 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// The packet paper's experiment: every intersector, no acceleration structure.
+    ///
+    /// Per mesh: --size primary rays from the default camera in --packet packets
+    /// (rays of a packet share the camera origin), each ray tested against every
+    /// triangle, with each intersector (moller, moller-pre, moller-packet, pluecker,
+    /// watertight) in scalar form and 4- and 8-wide SIMD (8-wide when the CPU has AVX).
+    /// Reports the median Mrays/s, millions of ray-triangle tests per second, the
+    /// speedup over scalar moller-pre and the share of rays hitting the same triangle
+    /// as scalar moller-pre.
+    Intersect {
+        /// Mesh files or builtin:NAME (keep them small: the work is rays × triangles).
+        #[arg(required = true)]
+        meshes: Vec<String>,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "256x256", value_parser = parse_size)]
+        size: (usize, usize),
+        /// Packet shape: 1x1, 2x2, 4x4 or 8x8.
+        #[arg(long, default_value = "2x2", value_parser = parse_packet)]
+        packet: usize,
+        /// Intersectors, comma separated (default: all).
+        #[arg(long, value_delimiter = ',')]
+        intersectors: Vec<IntersectorKind>,
+        /// Threads (0 = all cores; the paper measured one).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// Timed runs per configuration (medians are reported).
+        #[arg(long, default_value_t = 3)]
+        runs: usize,
+        /// Print one JSON object per line instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+/// A square packet shape `NxN` (N = 1, 2, 4 or 8) as its side N.
+fn parse_packet(text: &str) -> Result<usize, String> {
+    match text {
+        "1x1" => Ok(1),
+        "2x2" => Ok(2),
+        "4x4" => Ok(4),
+        "8x8" => Ok(8),
+        _ => Err(format!("bad packet '{text}': expected 1x1, 2x2, 4x4 or 8x8")),
+    }
 }
 
 fn parse_size(text: &str) -> Result<(usize, usize), String> {
@@ -509,6 +553,20 @@ fn run(cli: Cli) -> Result<()> {
                     json,
                 },
         } => bench_trace(&meshes, &vs, &rays, &threads, size, runs, builds, json),
+        Command::Bench {
+            what:
+                BenchCommand::Intersect {
+                    meshes,
+                    size,
+                    packet,
+                    intersectors,
+                    threads,
+                    runs,
+                    json,
+                },
+        } => workload::with_threads(threads, || {
+            bench_intersect(&meshes, size, packet, &intersectors, runs, json)
+        }),
         Command::Bench {
             what:
                 BenchCommand::Pairing {
@@ -901,6 +959,85 @@ fn bench_pairing(
                         name, format!("{} {}", row.method, kind.name()), row.pair_seconds, 100.0 * row.pair_ratio,
                         run.rays, run.box_tests_per_ray, run.tri_tests_per_ray, run.pair_tests_per_ray, mrays,
                         d_box, d_tests, d_mrays, 100.0 * same
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn bench_intersect(
+    meshes: &[String],
+    (width, height): (usize, usize),
+    side: usize,
+    kinds: &[IntersectorKind],
+    runs: usize,
+    json: bool,
+) -> Result<()> {
+    use rtmesh::trace::intersect::measure_without_bvh;
+    let kinds = if kinds.is_empty() {
+        IntersectorKind::ALL.to_vec()
+    } else {
+        kinds.to_vec()
+    };
+    if !json {
+        println!(
+            "{:<22} {:>9} {:<14} {:<6} {:>9} {:>9} {:>10} {:>8} {:>8}",
+            "mesh", "triangles", "intersector", "simd", "seconds", "Mrays/s", "Mtests/s", "speedup", "same"
+        );
+    }
+    for mesh in meshes {
+        let scene = load(mesh)?;
+        let flat = scene.flatten();
+        let soa = TriangleSoa::from_mesh(&flat);
+        let camera = rtmesh::trace::Camera::default_for(&scene.bounds(), width, height);
+        let (work, _) = Workload::primary_packets(&camera, width, height, side);
+        let name = Path::new(mesh)
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or(mesh);
+        let packet = side * side;
+        let (base_seconds, base_hits) = measure_without_bvh(
+            IntersectorKind::MollerPre,
+            Simd::Scalar,
+            &soa,
+            &work.rays,
+            packet,
+            runs,
+        );
+        let triangles = flat.triangle_count();
+        for &kind in &kinds {
+            for simd in Simd::available() {
+                let (seconds, hits) = if kind == IntersectorKind::MollerPre && simd == Simd::Scalar {
+                    (base_seconds, base_hits.clone())
+                } else {
+                    measure_without_bvh(kind, simd, &soa, &work.rays, packet, runs)
+                };
+                let same = hits
+                    .iter()
+                    .zip(&base_hits)
+                    .filter(|(a, b)| a.triangle == b.triangle)
+                    .count() as f64
+                    / hits.len().max(1) as f64;
+                let mrays = work.rays.len() as f64 / seconds / 1e6;
+                let mtests = mrays * triangles as f64;
+                let speedup = base_seconds / seconds;
+                if json {
+                    println!(
+                        "{}",
+                        serde_json::json!({
+                            "mesh": name, "triangles": triangles, "rays": work.rays.len(),
+                            "packet": format!("{side}x{side}"), "intersector": kind.name(),
+                            "simd": simd.name(), "threads": rayon::current_num_threads(),
+                            "seconds": seconds, "mrays_per_s": mrays, "mtests_per_s": mtests,
+                            "speedup_over_scalar_moller_pre": speedup, "same_hits": same,
+                        })
+                    );
+                } else {
+                    println!(
+                        "{name:<22} {triangles:>9} {:<14} {:<6} {seconds:>9.4} {mrays:>9.3} {mtests:>10.1} {speedup:>7.2}x {:>7.3}%",
+                        kind.name(), simd.name(), 100.0 * same
                     );
                 }
             }

@@ -6,11 +6,14 @@
 //! - [`MollerPre`]: the paper's "improved Möller", Eq. (2): `N = E1 × E2`, `E1`, `E2`
 //!   stored per triangle; per test `C = D × S`, then `u = C·E2 / N·D`,
 //!   `v = −C·E1 / N·D`, `t = −N·S / N·D` with `S = O − P0`: one cross, three dots.
+//!   Range tests run on the numerators against |N·D| (signs folded in), and the one
+//!   division happens only for a hit, as in Embree's Möller–Trumbore.
 //! - [`MollerPacket`]: Eq. (3): rays of a packet share the origin `O`, so per (packet,
 //!   triangle) `N·S`, `S × E2` and `E1 × S` are computed once (the paper's `−S' × E2`
 //!   and `S' × E1` with `S' = P0 − O`); per ray only `D·(S × E2)`, `D·(E1 × S)` and
-//!   `N·D`: three dot products and a division. It rejects on `u` before computing
-//!   `v`, and on `v` before `t`, as the paper does.
+//!   `N·D`: three dot products, and a division only for hits (numerators tested
+//!   against |N·D| as in `MollerPre`). It rejects on `u` before computing `v`, and on
+//!   `v` before `t`, as the paper does.
 //! - [`Pluecker`]: the packet Plücker test, the paper's other baseline: per packet the
 //!   corners move to the packet origin (`A = P0 − O`, ...), the three edge moments
 //!   `B × C`, `C × A`, `A × B` are computed once; per ray three dots whose signs must
@@ -223,6 +226,35 @@ fn accept_t<L: Lanes>(
     L::any(mask).then_some(LaneHits { mask, t, u, v })
 }
 
+/// The last range test on numerators scaled by `scale` = |denominator| (the division
+/// is deferred until some lane has passed every test): `t_min·scale < t < t_max·scale`,
+/// then `t`, `u`, `v` divided by `scale`. A zero or NaN scale fails (the bounds become
+/// 0 or NaN), so degenerate triangles and NaN rays miss.
+#[inline(always)]
+fn accept_scaled<L: Lanes>(
+    mask: L::Mask,
+    t: L,
+    u: L,
+    v: L,
+    scale: L,
+    ray: &PreparedRay,
+    t_max: f32,
+) -> Option<LaneHits<L>> {
+    let mask = mask
+        & L::lt(L::splat(ray.t_min) * scale, t)
+        & L::lt(t, L::splat(t_max) * scale);
+    if !L::any(mask) {
+        return None;
+    }
+    let inverse = L::splat(1.0) / scale;
+    Some(LaneHits {
+        mask,
+        t: t * inverse,
+        u: u * inverse,
+        v: v * inverse,
+    })
+}
+
 /// `0 ≤ x ≤ 1` per lane.
 #[inline(always)]
 fn unit_range<L: Lanes>(x: L) -> L::Mask {
@@ -287,21 +319,22 @@ impl Intersector for MollerPre {
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
         let n = triangles.normal();
-        let inverse = L::splat(1.0) / n.dot(d);
+        let denominator = n.dot(d);
         let s = V3::splat(ray.origin).sub(triangles.v0());
         let c = d.cross(s);
-        let u = c.dot(triangles.e2()) * inverse;
-        let mask = unit_range(u);
+        let u = c.dot(triangles.e2()).xor_sign(denominator);
+        let scale = denominator.abs();
+        let mask = L::le(L::splat(0.0), u) & L::le(u, scale);
         if !L::any(mask) {
             return None;
         }
-        let v = c.dot(triangles.e1()) * -inverse;
-        let mask = mask & L::le(L::splat(0.0), v) & L::le(u + v, L::splat(1.0));
+        let v = (-c.dot(triangles.e1())).xor_sign(denominator);
+        let mask = mask & L::le(L::splat(0.0), v) & L::le(u + v, scale);
         if !L::any(mask) {
             return None;
         }
-        let t = n.dot(s) * -inverse;
-        accept_t(mask, t, u, v, ray, t_max)
+        let t = (-n.dot(s)).xor_sign(denominator);
+        accept_scaled(mask, t, u, v, scale, ray, t_max)
     }
 }
 
@@ -340,19 +373,20 @@ impl Intersector for MollerPacket {
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
-        let inverse = L::splat(1.0) / terms.normal.dot(d);
-        let u = d.dot(terms.u_axis) * inverse;
-        let mask = unit_range(u);
+        let denominator = terms.normal.dot(d);
+        let u = d.dot(terms.u_axis).xor_sign(denominator);
+        let scale = denominator.abs();
+        let mask = L::le(L::splat(0.0), u) & L::le(u, scale);
         if !L::any(mask) {
             return None;
         }
-        let v = d.dot(terms.v_axis) * inverse;
-        let mask = mask & L::le(L::splat(0.0), v) & L::le(u + v, L::splat(1.0));
+        let v = d.dot(terms.v_axis).xor_sign(denominator);
+        let mask = mask & L::le(L::splat(0.0), v) & L::le(u + v, scale);
         if !L::any(mask) {
             return None;
         }
-        let t = terms.minus_n_dot_s * inverse;
-        accept_t(mask, t, u, v, ray, t_max)
+        let t = terms.minus_n_dot_s.xor_sign(denominator);
+        accept_scaled(mask, t, u, v, scale, ray, t_max)
     }
 }
 
@@ -786,6 +820,34 @@ pub fn closest_without_bvh<I: Intersector>(
 #[target_feature(enable = "avx")]
 unsafe fn packet_closest_avx<I: Intersector>(soa: &TriangleSoa, rays: &[Ray], hits: &mut [Hit]) {
     packet_closest_without_bvh::<I, super::lanes::Avx8>(soa, rays, hits)
+}
+
+/// The paper's experiment, one configuration: `rays` (packets are consecutive runs of
+/// `packet` rays sharing an origin) against every triangle of `soa`, `runs` times on
+/// the current rayon pool (a work item is 64 packets); returns the median seconds and
+/// the hits.
+pub fn measure_without_bvh(
+    kind: IntersectorKind,
+    simd: Simd,
+    soa: &TriangleSoa,
+    rays: &[Ray],
+    packet: usize,
+    runs: usize,
+) -> (f64, Vec<Hit>) {
+    use rayon::prelude::*;
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut seconds = Vec::with_capacity(runs);
+    let chunk = packet * 64;
+    for _ in 0..runs.max(1) {
+        let start = std::time::Instant::now();
+        rays.par_chunks(chunk)
+            .zip(hits.par_chunks_mut(chunk))
+            .for_each(|(rays, hits)| {
+                closest_without_bvh_by_kind(kind, simd, soa, rays, hits, packet)
+            });
+        seconds.push(start.elapsed().as_secs_f64());
+    }
+    (super::workload::median(&seconds), hits)
 }
 
 /// [`closest_without_bvh`] with the intersector named by `kind`.

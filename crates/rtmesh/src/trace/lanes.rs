@@ -37,6 +37,10 @@ pub trait Lanes:
     fn ne(self, rhs: Self) -> Self::Mask;
     /// Lanes that are neither infinite nor NaN.
     fn is_finite(self) -> Self::Mask;
+    /// `|self|` per lane.
+    fn abs(self) -> Self;
+    /// `self` with its sign flipped in lanes where `sign` is negative (sign bit set).
+    fn xor_sign(self, sign: Self) -> Self;
     /// Whether any lane of `mask` is set.
     fn any(mask: Self::Mask) -> bool;
     /// Lane `i` of `mask` as bit `i`.
@@ -73,6 +77,14 @@ impl Lanes for f32 {
     #[inline(always)]
     fn is_finite(self) -> bool {
         f32::is_finite(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32::abs(self)
+    }
+    #[inline(always)]
+    fn xor_sign(self, sign: Self) -> Self {
+        f32::from_bits(self.to_bits() ^ (sign.to_bits() & 0x8000_0000))
     }
     #[inline(always)]
     fn any(mask: bool) -> bool {
@@ -115,6 +127,14 @@ impl Lanes for f32x4 {
     #[inline(always)]
     fn is_finite(self) -> f32x4 {
         f32x4::is_finite(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32x4::abs(self)
+    }
+    #[inline(always)]
+    fn xor_sign(self, sign: Self) -> Self {
+        self ^ (sign & f32x4::splat(-0.0))
     }
     #[inline(always)]
     fn any(mask: f32x4) -> bool {
@@ -211,6 +231,16 @@ mod avx {
                 let magnitude = _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0);
                 _mm256_cmp_ps::<_CMP_LT_OQ>(magnitude, _mm256_set1_ps(f32::INFINITY))
             })
+        }
+        #[inline(always)]
+        fn abs(self) -> Self {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0) })
+        }
+        #[inline(always)]
+        fn xor_sign(self, sign: Self) -> Self {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_xor_ps(self.0, _mm256_and_ps(sign.0, _mm256_set1_ps(-0.0))) })
         }
         #[inline(always)]
         fn any(mask: Avx8) -> bool {

@@ -164,6 +164,43 @@ impl Workload {
         }
     }
 
+    /// Camera rays grouped into packets of `side` × `side` neighbouring pixels (smaller
+    /// at the right and bottom edges when `side` does not divide the image), packets
+    /// in row-major order, rays row-major inside each. Returns the workload and the
+    /// packet boundaries: packet `k` is `rays[starts[k]..starts[k + 1]]`.
+    pub fn primary_packets(
+        camera: &Camera,
+        width: usize,
+        height: usize,
+        side: usize,
+    ) -> (Self, Vec<u32>) {
+        let side = side.max(1);
+        let mut pixels = Vec::with_capacity(width * height);
+        let mut starts = vec![0u32];
+        for by in (0..height).step_by(side) {
+            for bx in (0..width).step_by(side) {
+                for y in by..(by + side).min(height) {
+                    for x in bx..(bx + side).min(width) {
+                        pixels.push((y * width + x) as u32);
+                    }
+                }
+                starts.push(pixels.len() as u32);
+            }
+        }
+        let rays = pixels
+            .iter()
+            .map(|&p| camera.ray(p as usize % width, p as usize / width, width, height))
+            .collect();
+        let work = Self {
+            kind: RayKind::Primary,
+            width,
+            height,
+            rays,
+            pixels,
+        };
+        (work, starts)
+    }
+
     /// The workload of `kind` for `scene` seen by the default camera (secondary rays
     /// start from primary hits found with `accel`).
     pub fn generate(
