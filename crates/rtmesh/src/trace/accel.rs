@@ -230,16 +230,22 @@ impl<L: LeafBlock> SceneAccel<L> {
 }
 
 impl<L: LeafBlock> SceneAccel<L> {
-    /// Closest hit of `ray` with node test `T`.
+    /// Closest hit of `ray` with node test `T` and leaf test `leaf` (which records a
+    /// closer hit into its `Hit` and says whether it did).
     #[inline(always)]
-    fn intersect_with<T: NodeTest, C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+    pub(crate) fn intersect_with<T: NodeTest, C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
+    ) -> Hit {
         let query = RayQuery::new(ray);
         let mut hit = Hit::MISS;
         hit.t = ray.t_max;
         match &self.tlas {
             None => {
                 if let Some(bvh) = self.blas.first() {
-                    if intersect_blas::<T, _, _>(bvh, &query, &mut hit, counters) {
+                    if intersect_blas::<T, _, _>(bvh, &query, &mut hit, counters, leaf) {
                         hit.instance = 0;
                         hit.geometry = 0;
                     }
@@ -260,6 +266,7 @@ impl<L: LeafBlock> SceneAccel<L> {
                                 &local,
                                 &mut hit,
                                 counters,
+                                leaf,
                             ) {
                                 hit.instance = instance.instance;
                                 hit.geometry = instance.mesh;
@@ -278,15 +285,23 @@ impl<L: LeafBlock> SceneAccel<L> {
         hit
     }
 
-    /// Whether anything blocks `ray` within `(t_min, t_max)`, with node test `T`.
+    /// Whether anything blocks `ray` within `(t_min, t_max)`, with node test `T` and
+    /// leaf test `leaf` (whether the block is hit before the given distance).
     #[inline(always)]
-    fn occluded_with<T: NodeTest, C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+    pub(crate) fn occluded_with<T: NodeTest, C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
+    ) -> bool {
         let query = RayQuery::new(ray);
         match &self.tlas {
             None => self
                 .blas
                 .first()
-                .is_some_and(|bvh| occluded_blas::<T, _, _>(bvh, &query, ray.t_max, counters)),
+                .is_some_and(|bvh| {
+                    occluded_blas::<T, _, _>(bvh, &query, ray.t_max, counters, leaf)
+                }),
             Some(tlas) => any_hit::<T, _, _>(
                 tlas,
                 &query,
@@ -300,6 +315,7 @@ impl<L: LeafBlock> SceneAccel<L> {
                             &local,
                             t_max,
                             counters,
+                            leaf,
                         )
                     })
                 },
@@ -310,15 +326,57 @@ impl<L: LeafBlock> SceneAccel<L> {
     /// [`Self::intersect_with`] compiled with AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn intersect_avx<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
-        self.intersect_with::<AvxNodeTest, C>(ray, counters)
+    pub(crate) unsafe fn intersect_avx<C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
+    ) -> Hit {
+        self.intersect_with::<AvxNodeTest, C>(ray, counters, leaf)
     }
 
     /// [`Self::occluded_with`] compiled with AVX.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx")]
-    unsafe fn occluded_avx<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        self.occluded_with::<AvxNodeTest, C>(ray, counters)
+    pub(crate) unsafe fn occluded_avx<C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
+    ) -> bool {
+        self.occluded_with::<AvxNodeTest, C>(ray, counters, leaf)
+    }
+
+    /// Closest hit with leaf test `leaf`, AVX node test where the CPU has it.
+    #[inline(always)]
+    pub(crate) fn intersect_dispatched<C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
+    ) -> Hit {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx() {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.intersect_avx(ray, counters, leaf) };
+        }
+        self.intersect_with::<PortableNodeTest, C>(ray, counters, leaf)
+    }
+
+    /// Occlusion with leaf test `leaf`, AVX node test where the CPU has it.
+    #[inline(always)]
+    pub(crate) fn occluded_dispatched<C: Counters>(
+        &self,
+        ray: &Ray,
+        counters: &mut C,
+        leaf: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
+    ) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if has_avx() {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.occluded_avx(ray, counters, leaf) };
+        }
+        self.occluded_with::<PortableNodeTest, C>(ray, counters, leaf)
     }
 }
 
@@ -340,23 +398,13 @@ impl<L: LeafBlock> Tracer for SceneAccel<L> {
     /// CPU has it, the portable one elsewhere (bit-identical results).
     #[inline]
     fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
-        #[cfg(target_arch = "x86_64")]
-        if has_avx() {
-            // SAFETY: the CPU has AVX.
-            return unsafe { self.intersect_avx(ray, counters) };
-        }
-        self.intersect_with::<PortableNodeTest, C>(ray, counters)
+        self.intersect_dispatched(ray, counters, L::intersect_into)
     }
 
     /// Whether anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if has_avx() {
-            // SAFETY: the CPU has AVX.
-            return unsafe { self.occluded_avx(ray, counters) };
-        }
-        self.occluded_with::<PortableNodeTest, C>(ray, counters)
+        self.occluded_dispatched(ray, counters, L::occludes)
     }
 }
 
@@ -376,6 +424,7 @@ fn intersect_blas<T: NodeTest, L: LeafBlock, C: Counters>(
     query: &RayQuery,
     hit: &mut Hit,
     counters: &mut C,
+    leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool,
 ) -> bool {
     let mut t_max = hit.t;
     closest_hit::<T, _, _>(
@@ -387,7 +436,7 @@ fn intersect_blas<T: NodeTest, L: LeafBlock, C: Counters>(
             let mut found = false;
             for block in blocks {
                 block.count_tests(counters);
-                if block.intersect_into(query, hit) {
+                if leaf(block, query, hit) {
                     *t_max = hit.t;
                     found = true;
                 }
@@ -403,11 +452,12 @@ fn occluded_blas<T: NodeTest, L: LeafBlock, C: Counters>(
     query: &RayQuery,
     t_max: f32,
     counters: &mut C,
+    leaf: impl Fn(&L, &RayQuery, f32) -> bool,
 ) -> bool {
     any_hit::<T, _, _>(bvh, query, t_max, counters, |blocks, t_max, counters| {
         blocks.iter().any(|block| {
             block.count_tests(counters);
-            block.occludes(query, t_max)
+            leaf(block, query, t_max)
         })
     })
 }
@@ -427,10 +477,17 @@ mod tests {
             for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
                 let work = Workload::generate(kind, &scene, &accel, 64, 64, 2);
                 for ray in &work.rays {
-                    let portable =
-                        accel.intersect_with::<PortableNodeTest, _>(ray, &mut NoCounters);
+                    let portable = accel.intersect_with::<PortableNodeTest, _>(
+                        ray,
+                        &mut NoCounters,
+                        Triangle4::intersect_into,
+                    );
                     assert_eq!(accel.intersect(ray, &mut NoCounters), portable);
-                    let blocked = accel.occluded_with::<PortableNodeTest, _>(ray, &mut NoCounters);
+                    let blocked = accel.occluded_with::<PortableNodeTest, _>(
+                        ray,
+                        &mut NoCounters,
+                        Triangle4::occludes,
+                    );
                     assert_eq!(accel.occluded(ray, &mut NoCounters), blocked);
                 }
             }

@@ -34,7 +34,7 @@
 //! NaN directions all miss (a zero or non-finite denominator fails every range test).
 
 use super::lanes::{Lanes, V3};
-use super::Hit;
+use super::{Hit, RayQuery};
 use crate::geom::Ray;
 use crate::mesh::TriMesh;
 use glam::Vec3;
@@ -93,50 +93,6 @@ impl FromStr for IntersectorKind {
             .ok_or_else(|| {
                 format!("unknown intersector '{s}' (moller, moller-pre, moller-packet, pluecker, watertight)")
             })
-    }
-}
-
-/// A ray with what every intersector needs per ray, computed once: for the watertight
-/// test the axis permutation (`kz` = largest |direction| component, `kx`, `ky` the
-/// next two, swapped when `direction[kz] < 0` to keep the winding) and the shear.
-#[derive(Clone, Copy, Debug)]
-pub struct PreparedRay {
-    /// Origin.
-    pub origin: Vec3,
-    /// Direction.
-    pub direction: Vec3,
-    /// Smallest accepted distance.
-    pub t_min: f32,
-    /// Watertight axes `[kx, ky, kz]`.
-    pub axes: [usize; 3],
-    /// Watertight shear `(d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz])`.
-    pub shear: Vec3,
-}
-
-impl PreparedRay {
-    /// Prepare `ray`.
-    #[inline]
-    pub fn new(ray: &Ray) -> Self {
-        let d = ray.direction;
-        let magnitude = d.abs();
-        let kz = if magnitude.x >= magnitude.y && magnitude.x >= magnitude.z {
-            0
-        } else if magnitude.y >= magnitude.z {
-            1
-        } else {
-            2
-        };
-        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
-        Self {
-            origin: ray.origin,
-            direction: d,
-            t_min: ray.t_min,
-            axes: [kx, ky, kz],
-            shear: Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]),
-        }
     }
 }
 
@@ -207,7 +163,7 @@ pub trait Intersector: Copy + Default + Send + Sync + 'static {
     fn test<L: Lanes>(
         triangles: &impl TriangleLanes<L>,
         shared: &Self::Shared<L>,
-        ray: &PreparedRay,
+        ray: &RayQuery,
         t_max: f32,
     ) -> Option<LaneHits<L>>;
 }
@@ -219,7 +175,7 @@ fn accept_t<L: Lanes>(
     t: L,
     u: L,
     v: L,
-    ray: &PreparedRay,
+    ray: &RayQuery,
     t_max: f32,
 ) -> Option<LaneHits<L>> {
     let mask = mask & L::lt(L::splat(ray.t_min), t) & L::lt(t, L::splat(t_max));
@@ -237,7 +193,7 @@ fn accept_scaled<L: Lanes>(
     u: L,
     v: L,
     scale: L,
-    ray: &PreparedRay,
+    ray: &RayQuery,
     t_max: f32,
 ) -> Option<LaneHits<L>> {
     let mask = mask
@@ -274,7 +230,7 @@ impl Intersector for Moller {
     fn test<L: Lanes>(
         triangles: &impl TriangleLanes<L>,
         _: &(),
-        ray: &PreparedRay,
+        ray: &RayQuery,
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let v0 = triangles.v0();
@@ -314,7 +270,7 @@ impl Intersector for MollerPre {
     fn test<L: Lanes>(
         triangles: &impl TriangleLanes<L>,
         _: &(),
-        ray: &PreparedRay,
+        ray: &RayQuery,
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
@@ -369,7 +325,7 @@ impl Intersector for MollerPacket {
     fn test<L: Lanes>(
         _: &impl TriangleLanes<L>,
         terms: &MollerPacketTerms<L>,
-        ray: &PreparedRay,
+        ray: &RayQuery,
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
@@ -423,7 +379,7 @@ impl Intersector for Pluecker {
     fn test<L: Lanes>(
         _: &impl TriangleLanes<L>,
         terms: &PlueckerTerms<L>,
-        ray: &PreparedRay,
+        ray: &RayQuery,
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
@@ -475,7 +431,7 @@ impl Intersector for Watertight {
     fn test<L: Lanes>(
         _: &impl TriangleLanes<L>,
         corners: &[V3<L>; 3],
-        ray: &PreparedRay,
+        ray: &RayQuery,
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let [kx, ky, kz] = ray.axes;
@@ -560,7 +516,7 @@ pub fn intersect_triangle<I: Intersector>(corners: [Vec3; 3], ray: &Ray) -> Opti
         normal: e1.cross(e2),
     };
     let shared = I::share::<f32>(&triangle, ray.origin);
-    let hit = I::test::<f32>(&triangle, &shared, &PreparedRay::new(ray), ray.t_max)?;
+    let hit = I::test::<f32>(&triangle, &shared, &RayQuery::new(ray), ray.t_max)?;
     hit.nearest().map(|(_, t, u, v)| (t, u, v))
 }
 
@@ -725,9 +681,9 @@ pub fn packet_closest_without_bvh<I: Intersector, L: Lanes>(
     let Some(first) = rays.first() else {
         return;
     };
-    let mut prepared = [PreparedRay::new(first); MAX_PACKET_RAYS];
+    let mut prepared = [RayQuery::new(first); MAX_PACKET_RAYS];
     for (p, ray) in prepared.iter_mut().zip(rays) {
-        *p = PreparedRay::new(ray);
+        *p = RayQuery::new(ray);
     }
     let prepared = &prepared[..rays.len()];
     for index in (0..soa.len()).step_by(L::WIDTH) {

@@ -1,14 +1,15 @@
-//! SIMD lanes for the intersectors: one trait, [`Lanes`], implemented by plain `f32`
-//! (the scalar reference, one triangle at a time, with real early-out branches), by
-//! `wide::f32x4` (4 triangles per test on any CPU: SSE, NEON or scalar emulation) and,
-//! on x86-64, by [`Avx8`] (8 triangles per test in 256-bit AVX registers, only run after
+//! SIMD lanes for the intersectors and packet traversal: one trait, [`Lanes`],
+//! implemented by plain `f32` (the scalar reference, one triangle at a time, with real
+//! early-out branches), by `wide::f32x4` (4 triangles per test on any CPU: SSE, NEON or
+//! scalar emulation), by `wide::f32x8` (8 lanes as two halves unless the whole program
+//! is built for AVX) and, on x86-64, by [`Avx8`] (8 triangles per test in 256-bit AVX registers, only run after
 //! `is_x86_feature_detected!("avx")`). The intersectors are written once over this
 //! trait, so the three forms execute the same IEEE operations in the same order (no
 //! fused multiply-add) and give bit-identical results.
 
 use glam::Vec3;
 use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Sub};
-use wide::f32x4;
+use wide::{f32x4, f32x8};
 
 /// A vector of `WIDTH` floats, with comparisons into a lane mask.
 pub trait Lanes:
@@ -37,6 +38,10 @@ pub trait Lanes:
     fn ne(self, rhs: Self) -> Self::Mask;
     /// Lanes that are neither infinite nor NaN.
     fn is_finite(self) -> Self::Mask;
+    /// The smaller of two lanes (either one when a lane is NaN).
+    fn min(self, rhs: Self) -> Self;
+    /// The larger of two lanes (either one when a lane is NaN).
+    fn max(self, rhs: Self) -> Self;
     /// `|self|` per lane.
     fn abs(self) -> Self;
     /// `self` with its sign flipped in lanes where `sign` is negative (sign bit set).
@@ -77,6 +82,14 @@ impl Lanes for f32 {
     #[inline(always)]
     fn is_finite(self) -> bool {
         f32::is_finite(self)
+    }
+    #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        f32::min(self, rhs)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        f32::max(self, rhs)
     }
     #[inline(always)]
     fn abs(self) -> Self {
@@ -129,6 +142,14 @@ impl Lanes for f32x4 {
         f32x4::is_finite(self)
     }
     #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        self.fast_min(rhs)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        self.fast_max(rhs)
+    }
+    #[inline(always)]
     fn abs(self) -> Self {
         f32x4::abs(self)
     }
@@ -142,6 +163,63 @@ impl Lanes for f32x4 {
     }
     #[inline(always)]
     fn bitmask(mask: f32x4) -> u32 {
+        mask.to_bitmask()
+    }
+}
+
+impl Lanes for f32x8 {
+    type Mask = f32x8;
+    const WIDTH: usize = 8;
+    #[inline(always)]
+    fn splat(x: f32) -> Self {
+        f32x8::splat(x)
+    }
+    #[inline(always)]
+    fn load(values: &[f32]) -> Self {
+        f32x8::new(values[..8].try_into().expect("8 floats"))
+    }
+    #[inline(always)]
+    fn to_array(self) -> [f32; 8] {
+        f32x8::to_array(self)
+    }
+    #[inline(always)]
+    fn lt(self, rhs: Self) -> f32x8 {
+        self.simd_lt(rhs)
+    }
+    #[inline(always)]
+    fn le(self, rhs: Self) -> f32x8 {
+        self.simd_le(rhs)
+    }
+    #[inline(always)]
+    fn ne(self, rhs: Self) -> f32x8 {
+        self.simd_ne(rhs)
+    }
+    #[inline(always)]
+    fn is_finite(self) -> f32x8 {
+        f32x8::is_finite(self)
+    }
+    #[inline(always)]
+    fn min(self, rhs: Self) -> Self {
+        self.fast_min(rhs)
+    }
+    #[inline(always)]
+    fn max(self, rhs: Self) -> Self {
+        self.fast_max(rhs)
+    }
+    #[inline(always)]
+    fn abs(self) -> Self {
+        f32x8::abs(self)
+    }
+    #[inline(always)]
+    fn xor_sign(self, sign: Self) -> Self {
+        self ^ (sign & f32x8::splat(-0.0))
+    }
+    #[inline(always)]
+    fn any(mask: f32x8) -> bool {
+        mask.any()
+    }
+    #[inline(always)]
+    fn bitmask(mask: f32x8) -> u32 {
         mask.to_bitmask()
     }
 }
@@ -231,6 +309,16 @@ mod avx {
                 let magnitude = _mm256_andnot_ps(_mm256_set1_ps(-0.0), self.0);
                 _mm256_cmp_ps::<_CMP_LT_OQ>(magnitude, _mm256_set1_ps(f32::INFINITY))
             })
+        }
+        #[inline(always)]
+        fn min(self, rhs: Self) -> Self {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_min_ps(self.0, rhs.0) })
+        }
+        #[inline(always)]
+        fn max(self, rhs: Self) -> Self {
+            // SAFETY: as above.
+            Avx8(unsafe { _mm256_max_ps(self.0, rhs.0) })
         }
         #[inline(always)]
         fn abs(self) -> Self {

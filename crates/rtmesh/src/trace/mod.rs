@@ -10,6 +10,7 @@ pub mod accel;
 pub mod compare;
 pub mod intersect;
 pub mod lanes;
+pub mod packet;
 pub mod pair;
 pub mod traverse;
 pub mod triangle;
@@ -173,6 +174,13 @@ pub struct RayQuery {
     pub near_plane: [usize; 3],
     /// Per axis, the plane index left last (the opposite of `near_plane`).
     pub far_plane: [usize; 3],
+    /// For the watertight triangle test: axes `[kx, ky, kz]`, `kz` the largest
+    /// |direction| component, `kx` and `ky` the next two, swapped when
+    /// `direction[kz] < 0` to keep the winding.
+    pub axes: [usize; 3],
+    /// For the watertight triangle test: the shear
+    /// `(d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz])`.
+    pub shear: Vec3,
 }
 
 /// 1 + 2γ₃ with γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴.
@@ -201,10 +209,26 @@ impl RayQuery {
                 axis + 3
             }
         };
+        let d = ray.direction;
+        let magnitude = d.abs();
+        let kz = if magnitude.x >= magnitude.y && magnitude.x >= magnitude.z {
+            0
+        } else if magnitude.y >= magnitude.z {
+            1
+        } else {
+            2
+        };
+        let (kx, ky) = if d[kz] < 0.0 {
+            ((kz + 2) % 3, (kz + 1) % 3)
+        } else {
+            ((kz + 1) % 3, (kz + 2) % 3)
+        };
         Self {
             origin: ray.origin,
             direction: ray.direction,
             t_min: ray.t_min,
+            axes: [kx, ky, kz],
+            shear: Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]),
             inverse_direction,
             inverse_direction_far: inverse_direction * ROBUST_FAR_SCALE,
             near_plane: [near(0), near(1), near(2)],

@@ -20,18 +20,18 @@ use wide::f32x8;
 /// Deepest stack any tree of ours needs: the builder bounds the binary depth at 64 SAH
 /// levels plus 27 median-split levels (2^27 primitives at most), a collapsed tree is no
 /// deeper, and each level pushes at most 7 children.
-const STACK_SIZE: usize = (WIDTH - 1) * (64 + 27) + 1;
+pub(crate) const STACK_SIZE: usize = (WIDTH - 1) * (64 + 27) + 1;
 
 /// A traversal stack that is not zero-filled per ray (that memset would cost more than
 /// a typical traversal). Only slots below `len` are ever read, and all were written.
-struct Stack<T: Copy> {
+pub(crate) struct Stack<T: Copy> {
     slots: [std::mem::MaybeUninit<T>; STACK_SIZE],
     len: usize,
 }
 
 impl<T: Copy> Stack<T> {
     #[inline(always)]
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self {
             slots: [const { std::mem::MaybeUninit::uninit() }; STACK_SIZE],
             len: 0,
@@ -39,13 +39,13 @@ impl<T: Copy> Stack<T> {
     }
 
     #[inline(always)]
-    fn push(&mut self, value: T) {
+    pub(crate) fn push(&mut self, value: T) {
         self.slots[self.len].write(value);
         self.len += 1;
     }
 
     #[inline(always)]
-    fn pop(&mut self) -> Option<T> {
+    pub(crate) fn pop(&mut self) -> Option<T> {
         if self.len == 0 {
             return None;
         }

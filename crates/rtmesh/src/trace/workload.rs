@@ -13,7 +13,8 @@
 //! Secondary rays start `1e-4 ·` diagonal off the surface. Pixels whose primary ray
 //! misses have no secondary ray.
 
-use super::{Counters, Hit, NoCounters, RayCounters, Tracer};
+use super::intersect::Intersector;
+use super::{Counters, Hit, NoCounters, RayCounters, SceneAccel, Tracer};
 use crate::geom::{Aabb, Ray};
 use crate::mesh::Scene;
 use crate::random::SplitMix64;
@@ -319,6 +320,145 @@ pub fn trace_occluded<C: Counters + Copy>(
     trace_each(rays, false, |ray, counters| tracer.occluded(ray, counters))
 }
 
+/// Split `rays` and per-ray outputs into work items of whole packets (`starts` as
+/// from [`Workload::primary_packets`]), about 64 rays each.
+fn packet_items<'a, R, C>(
+    rays: &'a [Ray],
+    starts: &[u32],
+    mut outcomes: &'a mut [R],
+    mut counters: &'a mut [C],
+) -> Vec<(&'a [Ray], Vec<usize>, &'a mut [R], &'a mut [C])> {
+    let mut items = Vec::new();
+    let mut k = 0;
+    while k + 1 < starts.len() {
+        let begin = starts[k] as usize;
+        let mut sizes = Vec::new();
+        while k + 1 < starts.len() && (sizes.is_empty() || starts[k] as usize - begin < CHUNK) {
+            sizes.push((starts[k + 1] - starts[k]) as usize);
+            k += 1;
+        }
+        let end = starts[k] as usize;
+        let (head, tail) = std::mem::take(&mut outcomes).split_at_mut(end - begin);
+        outcomes = tail;
+        let (counted, rest) = std::mem::take(&mut counters).split_at_mut(end - begin);
+        counters = rest;
+        items.push((&rays[begin..end], sizes, head, counted));
+    }
+    items
+}
+
+/// Closest hits of packets of rays sharing an origin (`starts` as from
+/// [`Workload::primary_packets`]) with packet traversal and intersector `I`, on the
+/// current rayon pool, with per-ray counters.
+pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
+    accel: &SceneAccel,
+    rays: &[Ray],
+    starts: &[u32],
+) -> (Vec<Hit>, Vec<C>) {
+    let mut hits = vec![Hit::MISS; rays.len()];
+    let mut counters = vec![C::default(); rays.len()];
+    packet_items(rays, starts, &mut hits, &mut counters)
+        .into_par_iter()
+        .for_each(|(rays, sizes, hits, counters)| {
+            let mut at = 0;
+            for size in sizes {
+                let range = at..at + size;
+                accel.intersect_packet::<I, C>(
+                    &rays[range.clone()],
+                    &mut hits[range.clone()],
+                    &mut counters[range],
+                );
+                at += size;
+            }
+        });
+    (hits, counters)
+}
+
+/// Closest hits of `rays` one at a time with intersector `I`, on the current rayon
+/// pool, with per-ray counters (the reference for [`trace_packets_closest`]).
+pub fn trace_closest_by<I: Intersector, C: Counters + Copy>(
+    accel: &SceneAccel,
+    rays: &[Ray],
+) -> (Vec<Hit>, Vec<C>) {
+    trace_each(rays, Hit::MISS, |ray, counters| {
+        accel.intersect_by::<I, C>(ray, counters)
+    })
+}
+
+/// Trace primary packets (`starts` as from [`Workload::primary_packets`]) `runs` times
+/// with counters off (timed) and once with counters on, with packet traversal and
+/// intersector `I`.
+pub fn measure_packets<I: Intersector>(
+    accel: &SceneAccel,
+    workload: &Workload,
+    starts: &[u32],
+    runs: usize,
+) -> TraceRun {
+    let rays = &workload.rays;
+    measure_closest(
+        rays,
+        runs,
+        || trace_packets_closest::<I, NoCounters>(accel, rays, starts).0,
+        || trace_packets_closest::<I, RayCounters>(accel, rays, starts).1,
+    )
+}
+
+/// Trace `workload` one ray at a time with intersector `I` in the leaves, `runs` times
+/// with counters off (timed) and once with counters on.
+pub fn measure_by<I: Intersector>(accel: &SceneAccel, workload: &Workload, runs: usize) -> TraceRun {
+    let rays = &workload.rays;
+    measure_closest(
+        rays,
+        runs,
+        || trace_closest_by::<I, NoCounters>(accel, rays).0,
+        || trace_closest_by::<I, RayCounters>(accel, rays).1,
+    )
+}
+
+/// Time `timed` `runs` times, then count once with `counted`.
+fn measure_closest(
+    rays: &[Ray],
+    runs: usize,
+    timed: impl Fn() -> Vec<Hit>,
+    counted: impl Fn() -> Vec<RayCounters>,
+) -> TraceRun {
+    let mut all_seconds = Vec::with_capacity(runs);
+    let mut hits = Vec::new();
+    for _ in 0..runs.max(1) {
+        let start = std::time::Instant::now();
+        hits = timed();
+        all_seconds.push(start.elapsed().as_secs_f64());
+    }
+    let found = hits.iter().filter(|h| h.is_hit()).count();
+    summarize(rays, all_seconds, found, hit_checksum(&hits), &counted())
+}
+
+/// A [`TraceRun`] from timings, the hit count and checksum, and per-ray counters.
+fn summarize(
+    rays: &[Ray],
+    all_seconds: Vec<f64>,
+    hits: usize,
+    hit_checksum: u64,
+    counters: &[RayCounters],
+) -> TraceRun {
+    let mut total = RayCounters::default();
+    counters.iter().for_each(|c| total.merge(c));
+    let n = rays.len().max(1) as f64;
+    let seconds = median(&all_seconds);
+    TraceRun {
+        rays: rays.len(),
+        seconds,
+        mrays_per_s: rays.len() as f64 / seconds.max(1e-12) / 1e6,
+        box_tests_per_ray: total.box_tests as f64 / n,
+        tri_tests_per_ray: total.triangle_tests as f64 / n,
+        pair_tests_per_ray: total.pair_tests as f64 / n,
+        nodes_per_ray: total.nodes_visited as f64 / n,
+        hits,
+        hit_checksum,
+        all_seconds,
+    }
+}
+
 fn mix(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
@@ -420,22 +560,7 @@ pub fn measure(tracer: &impl Tracer, workload: &Workload, runs: usize) -> TraceR
     } else {
         trace_closest::<RayCounters>(tracer, rays).1
     };
-    let mut total = RayCounters::default();
-    counters.iter().for_each(|c| total.merge(c));
-    let n = rays.len().max(1) as f64;
-    let seconds = median(&all_seconds);
-    TraceRun {
-        rays: rays.len(),
-        seconds,
-        mrays_per_s: rays.len() as f64 / seconds.max(1e-12) / 1e6,
-        box_tests_per_ray: total.box_tests as f64 / n,
-        tri_tests_per_ray: total.triangle_tests as f64 / n,
-        pair_tests_per_ray: total.pair_tests as f64 / n,
-        nodes_per_ray: total.nodes_visited as f64 / n,
-        hits,
-        hit_checksum: checksum,
-        all_seconds,
-    }
+    summarize(rays, all_seconds, hits, checksum, &counters)
 }
 
 /// Run `f` on a rayon pool of `threads` threads (0 = all cores).
