@@ -10,7 +10,7 @@ use rtmesh::mesh::MeshInfo;
 use rtmesh::pair::{PairMethod, PairReport, PairSettings, Pairing};
 use rtmesh::render::HeatmapMetric;
 use rtmesh::trace::compare::{CompareSettings, Comparison};
-use rtmesh::trace::intersect::{IntersectorKind, Simd, TriangleSoa};
+use rtmesh::trace::intersect::{Intersector, IntersectorKind, Simd, TriangleSoa, WithIntersector};
 use rtmesh::trace::{workload, RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 use std::path::{Path, PathBuf};
@@ -86,7 +86,7 @@ enum Command {
     },
     /// Trace a ray workload through rtmesh's BVH and report speed and work per ray.
     ///
-    /// Builds a 4-wide binned-SAH BVH (two levels for scenes with instances), traces
+    /// Builds an 8-wide binned-SAH BVH (two levels for scenes with instances), traces
     /// the workload `--runs` times with counters off and reports the median, then once
     /// with counters on for box and triangle tests per ray.
     Trace {
@@ -111,6 +111,19 @@ enum Command {
         /// How to pair for --leaf pair: sah, sah-compressed, window:N, sah-max, max.
         #[arg(long, default_value = "sah")]
         pair_method: PairMethod,
+        /// Ray packets: auto, none, 2x2, 4x4 or 8x8. Packets of neighbouring camera
+        /// rays share an origin and traverse the BVH together (a frustum test per node
+        /// for the whole packet, then the exact test per ray). They pay for coherent
+        /// primary rays; diffuse and shadow rays start from different points, so auto
+        /// picks 8x8 for primary rays and single rays otherwise.
+        #[arg(long, default_value = "auto")]
+        packet: String,
+        /// Ray-triangle test in the leaves: moller, moller-pre, moller-packet,
+        /// pluecker or watertight. Default: moller-packet for packets (its shared terms
+        /// are computed once per packet), the built-in Möller-Trumbore with
+        /// precomputed edges for single rays.
+        #[arg(long)]
+        intersector: Option<IntersectorKind>,
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
@@ -274,6 +287,26 @@ enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// `rtmesh trace --packet`: measure packets with the chosen intersector.
+struct MeasurePackets<'a>(&'a SceneAccel, &'a Workload, &'a [u32], usize);
+
+impl WithIntersector for MeasurePackets<'_> {
+    type Output = rtmesh::trace::TraceRun;
+    fn run<I: Intersector>(self) -> Self::Output {
+        workload::measure_packets::<I>(self.0, self.1, self.2, self.3)
+    }
+}
+
+/// `rtmesh trace --intersector` with single rays.
+struct MeasureSingle<'a>(&'a SceneAccel, &'a Workload, usize);
+
+impl WithIntersector for MeasureSingle<'_> {
+    type Output = rtmesh::trace::TraceRun;
+    fn run<I: Intersector>(self) -> Self::Output {
+        workload::measure_by::<I>(self.0, self.1, self.2)
+    }
 }
 
 /// A square packet shape `NxN` (N = 1, 2, 4 or 8) as its side N.
@@ -442,17 +475,47 @@ fn run(cli: Cli) -> Result<()> {
             runs,
             leaf,
             pair_method,
+            packet,
+            intersector,
             json,
         } => {
+            let side = match packet.as_str() {
+                "auto" if rays == RayKind::Primary && leaf == "tri" => 8,
+                "auto" | "none" => 1,
+                shape => parse_packet(shape).map_err(anyhow::Error::msg)?,
+            };
+            if side > 1 && rays != RayKind::Primary {
+                anyhow::bail!(
+                    "--packet {packet}: packets need rays that share an origin (primary rays); \
+                     trace {} rays with --packet none",
+                    rays.name()
+                );
+            }
+            if leaf == "pair" && (side > 1 || intersector.is_some()) {
+                anyhow::bail!("--packet and --intersector work with --leaf tri only");
+            }
+            if intersector.is_some() && rays == RayKind::Shadow {
+                anyhow::bail!("--intersector: shadow rays use the built-in test; trace primary or diffuse rays");
+            }
             let scene = load(&mesh)?;
             let report = workload::with_threads(threads, || {
                 let triangles = SceneAccel::build(&scene, &BuildSettings::default());
-                let work = Workload::generate(rays, &scene, &triangles, width, height, 1);
+                let mut work = Workload::generate(rays, &scene, &triangles, width, height, 1);
                 let (stats, run) = if leaf == "pair" {
                     let (welded, pairings) = rtmesh::pair::weld_and_pair(&scene, pair_method);
                     let pairs =
                         SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());
                     (pairs.stats(), workload::measure(&pairs, &work, runs))
+                } else if side > 1 {
+                    let camera = rtmesh::trace::Camera::default_for(&scene.bounds(), width, height);
+                    let (packed, starts) = Workload::primary_packets(&camera, width, height, side);
+                    work = packed;
+                    let kind = intersector.unwrap_or(IntersectorKind::MollerPacket);
+                    let run = kind.dispatch(MeasurePackets(&triangles, &work, &starts, runs));
+                    (triangles.stats(), run)
+                } else if let Some(kind) = intersector {
+                    let run = kind.dispatch(MeasureSingle(&triangles, &work, runs));
+                    (triangles.stats(), run)
                 } else {
                     (
                         triangles.stats(),
@@ -462,17 +525,29 @@ fn run(cli: Cli) -> Result<()> {
                 (stats, run, rayon::current_num_threads())
             });
             let (bvh, run, threads) = report;
+            let packet = if side > 1 {
+                format!("{side}x{side}")
+            } else {
+                "none".to_owned()
+            };
+            let intersector = match (intersector, side > 1) {
+                (Some(kind), _) => kind.name(),
+                (None, true) => IntersectorKind::MollerPacket.name(),
+                (None, false) => "builtin",
+            };
             if json {
                 let mut value = serde_json::to_value(&run)?;
                 value["mesh"] = serde_json::json!(mesh);
                 value["ray_kind"] = serde_json::json!(rays.name());
                 value["threads"] = serde_json::json!(threads);
+                value["packet"] = serde_json::json!(packet);
+                value["intersector"] = serde_json::json!(intersector);
                 value["bvh"] = serde_json::to_value(&bvh)?;
                 value["bvh"]["bytes"] = serde_json::json!(bvh.bytes);
                 print_json(&value)
             } else {
                 println!(
-                    "{mesh}: {} {} rays on {threads} threads",
+                    "{mesh}: {} {} rays on {threads} threads, packets {packet}, intersector {intersector}",
                     run.rays,
                     rays.name()
                 );

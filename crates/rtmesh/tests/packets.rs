@@ -8,6 +8,7 @@ use glam::Vec3;
 use rtmesh::bvh::BuildSettings;
 use rtmesh::random::SplitMix64;
 use rtmesh::trace::intersect::{Intersector, Moller, MollerPacket, MollerPre, Pluecker, Watertight};
+use rtmesh::trace::packet::PacketBuffer;
 use rtmesh::trace::workload::{trace_closest_by, trace_packets_closest};
 use rtmesh::trace::{Camera, NoCounters, RayCounters, SceneAccel, Workload};
 use rtmesh::{Ray, Scene};
@@ -103,6 +104,7 @@ fn shadow_packets_match_single_rays() {
         let primary = Workload::primary(&camera, 64, 64);
         let hits = trace_closest_by::<MollerPacket, NoCounters>(&accel, &primary.rays).0;
         let light = bounds.center() + Vec3::Y * bounds.diagonal_length();
+        let mut buffer = PacketBuffer::default();
         let mut occluded_rays = 0;
         for (ray, hit) in primary.rays.iter().zip(&hits).step_by(7) {
             if !hit.is_hit() {
@@ -124,7 +126,7 @@ fn shadow_packets_match_single_rays() {
                 .collect();
             let mut packed = vec![false; rays.len()];
             let mut counters = vec![NoCounters; rays.len()];
-            accel.occluded_packet::<MollerPacket, _>(&rays, &mut packed, &mut counters);
+            accel.occluded_packet::<MollerPacket, _>(&mut buffer, &rays, &mut packed, &mut counters);
             for (ray, &blocked) in rays.iter().zip(&packed) {
                 let alone = accel.occluded_by::<MollerPacket, _>(ray, &mut NoCounters);
                 assert_eq!(alone, blocked, "{name}: {ray:?}");

@@ -78,6 +78,28 @@ impl IntersectorKind {
     }
 }
 
+/// Code generic over the intersector, run for a name chosen at run time with
+/// [`IntersectorKind::dispatch`].
+pub trait WithIntersector {
+    /// What the code returns.
+    type Output;
+    /// Run with intersector `I`.
+    fn run<I: Intersector>(self) -> Self::Output;
+}
+
+impl IntersectorKind {
+    /// Run `code` with the intersector this names.
+    pub fn dispatch<W: WithIntersector>(self, code: W) -> W::Output {
+        match self {
+            Self::Moller => code.run::<Moller>(),
+            Self::MollerPre => code.run::<MollerPre>(),
+            Self::MollerPacket => code.run::<MollerPacket>(),
+            Self::Pluecker => code.run::<Pluecker>(),
+            Self::Watertight => code.run::<Watertight>(),
+        }
+    }
+}
+
 impl fmt::Display for IntersectorKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
@@ -526,13 +548,14 @@ pub fn intersect_triangle_by_kind(
     corners: [Vec3; 3],
     ray: &Ray,
 ) -> Option<(f32, f32, f32)> {
-    match kind {
-        IntersectorKind::Moller => intersect_triangle::<Moller>(corners, ray),
-        IntersectorKind::MollerPre => intersect_triangle::<MollerPre>(corners, ray),
-        IntersectorKind::MollerPacket => intersect_triangle::<MollerPacket>(corners, ray),
-        IntersectorKind::Pluecker => intersect_triangle::<Pluecker>(corners, ray),
-        IntersectorKind::Watertight => intersect_triangle::<Watertight>(corners, ray),
+    struct One<'a>([Vec3; 3], &'a Ray);
+    impl WithIntersector for One<'_> {
+        type Output = Option<(f32, f32, f32)>;
+        fn run<I: Intersector>(self) -> Self::Output {
+            intersect_triangle::<I>(self.0, self.1)
+        }
     }
+    kind.dispatch(One(corners, ray))
 }
 
 /// The reference the intersectors are tested against: Möller–Trumbore in double
@@ -815,17 +838,12 @@ pub fn closest_without_bvh_by_kind(
     hits: &mut [Hit],
     packet: usize,
 ) {
-    match kind {
-        IntersectorKind::Moller => closest_without_bvh::<Moller>(simd, soa, rays, hits, packet),
-        IntersectorKind::MollerPre => {
-            closest_without_bvh::<MollerPre>(simd, soa, rays, hits, packet)
-        }
-        IntersectorKind::MollerPacket => {
-            closest_without_bvh::<MollerPacket>(simd, soa, rays, hits, packet)
-        }
-        IntersectorKind::Pluecker => closest_without_bvh::<Pluecker>(simd, soa, rays, hits, packet),
-        IntersectorKind::Watertight => {
-            closest_without_bvh::<Watertight>(simd, soa, rays, hits, packet)
+    struct All<'a>(Simd, &'a TriangleSoa, &'a [Ray], &'a mut [Hit], usize);
+    impl WithIntersector for All<'_> {
+        type Output = ();
+        fn run<I: Intersector>(self) {
+            closest_without_bvh::<I>(self.0, self.1, self.2, self.3, self.4)
         }
     }
+    kind.dispatch(All(simd, soa, rays, hits, packet))
 }

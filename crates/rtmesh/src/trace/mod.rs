@@ -179,7 +179,7 @@ pub struct RayQuery {
     /// `direction[kz] < 0` to keep the winding.
     pub axes: [usize; 3],
     /// For the watertight triangle test: the shear
-    /// `(d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz])`.
+    /// `(d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz])` (as products with `1 / d[kz]`).
     pub shear: Vec3,
 }
 
@@ -188,7 +188,7 @@ const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * (1.5 * f32::EPSILON) / (1.0 - 1.5 * f3
 
 impl RayQuery {
     /// Prepare `ray`.
-    #[inline]
+    #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
         let safe = |d: f32| {
             if d.abs() < 1e-18 {
@@ -223,12 +223,15 @@ impl RayQuery {
         } else {
             ((kz + 1) % 3, (kz + 2) % 3)
         };
+        // One exact division (not the clamped reciprocal: a zero direction must give
+        // NaN shears, so that it misses).
+        let inverse_z = 1.0 / d[kz];
         Self {
             origin: ray.origin,
             direction: ray.direction,
             t_min: ray.t_min,
             axes: [kx, ky, kz],
-            shear: Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]),
+            shear: Vec3::new(d[kx] * inverse_z, d[ky] * inverse_z, inverse_z),
             inverse_direction,
             inverse_direction_far: inverse_direction * ROBUST_FAR_SCALE,
             near_plane: [near(0), near(1), near(2)],

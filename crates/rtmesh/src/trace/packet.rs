@@ -31,16 +31,15 @@ use crate::geom::Ray;
 use glam::Vec3;
 use wide::f32x4;
 
-/// Rays of one packet, structure of arrays, room for `N` rays (a multiple of 8: the
-/// ray tests run eight at a time).
-struct Packet<const N: usize> {
+/// Rays of one packet, structure of arrays, room for 64 rays.
+struct Packet {
     origin: Vec3,
     len: usize,
-    queries: [RayQuery; N],
-    inverse: [[f32; N]; 3],
-    inverse_far: [[f32; N]; 3],
-    t_min: [f32; N],
-    t_max: [f32; N],
+    queries: [RayQuery; MAX_PACKET_RAYS],
+    inverse: [[f32; MAX_PACKET_RAYS]; 3],
+    inverse_far: [[f32; MAX_PACKET_RAYS]; 3],
+    t_min: [f32; MAX_PACKET_RAYS],
+    t_max: [f32; MAX_PACKET_RAYS],
     near_plane: [usize; 3],
     far_plane: [usize; 3],
     /// Per axis, the smallest and largest reciprocal direction (near planes).
@@ -50,52 +49,73 @@ struct Packet<const N: usize> {
     lowest_t_min: f32,
 }
 
-impl<const N: usize> Packet<N> {
-    /// Prepare `rays` (1 to `N`), or `None` when they do not share an origin or their
-    /// direction signs differ on some axis.
+/// Storage for tracing packets, about 10 KB: make one per thread or work item and
+/// reuse it for many packets.
+pub struct PacketBuffer(Box<Packet>);
+
+impl Default for PacketBuffer {
+    fn default() -> Self {
+        let query = RayQuery::new(&Ray::new(Vec3::ZERO, Vec3::ONE));
+        Self(Box::new(Packet {
+            origin: Vec3::ZERO,
+            len: 0,
+            queries: [query; MAX_PACKET_RAYS],
+            inverse: [[0.0; MAX_PACKET_RAYS]; 3],
+            inverse_far: [[0.0; MAX_PACKET_RAYS]; 3],
+            t_min: [0.0; MAX_PACKET_RAYS],
+            t_max: [0.0; MAX_PACKET_RAYS],
+            near_plane: query.near_plane,
+            far_plane: query.far_plane,
+            inverse_range: [(0.0, 0.0); 3],
+            inverse_far_range: [(0.0, 0.0); 3],
+            lowest_t_min: 0.0,
+        }))
+    }
+}
+
+impl Packet {
+    /// Prepare `rays` (1 to 64); false when they do not share an origin or their
+    /// direction signs differ on some axis. Slots past `rays.len()` keep stale values,
+    /// which the ray masks never read.
     #[inline(always)]
-    fn new(rays: &[Ray]) -> Option<Self> {
-        let first = RayQuery::new(rays.first()?);
-        if rays.len() > N || rays.iter().any(|r| r.origin != first.origin) {
-            return None;
-        }
-        let mut packet = Packet {
-            origin: first.origin,
-            len: rays.len(),
-            queries: [first; N],
-            inverse: [[0.0; N]; 3],
-            inverse_far: [[0.0; N]; 3],
-            t_min: [f32::INFINITY; N],
-            t_max: [f32::NEG_INFINITY; N],
-            near_plane: first.near_plane,
-            far_plane: first.far_plane,
-            inverse_range: [(f32::INFINITY, f32::NEG_INFINITY); 3],
-            inverse_far_range: [(f32::INFINITY, f32::NEG_INFINITY); 3],
-            lowest_t_min: f32::INFINITY,
+    fn fill(&mut self, rays: &[Ray]) -> bool {
+        let Some(first) = rays.first() else {
+            return false;
         };
+        if rays.len() > MAX_PACKET_RAYS || rays.iter().any(|r| r.origin != first.origin) {
+            return false;
+        }
+        self.origin = first.origin;
+        self.len = rays.len();
+        self.inverse_range = [(f32::INFINITY, f32::NEG_INFINITY); 3];
+        self.inverse_far_range = [(f32::INFINITY, f32::NEG_INFINITY); 3];
+        self.lowest_t_min = f32::INFINITY;
         for (r, ray) in rays.iter().enumerate() {
-            let query = RayQuery::new(ray);
-            if query.near_plane != first.near_plane {
-                return None;
+            self.queries[r] = RayQuery::new(ray);
+            let query = &self.queries[r];
+            if r == 0 {
+                self.near_plane = query.near_plane;
+                self.far_plane = query.far_plane;
+            } else if query.near_plane != self.near_plane {
+                return false;
             }
             for axis in 0..3 {
                 let (i, f) = (
                     query.inverse_direction[axis],
                     query.inverse_direction_far[axis],
                 );
-                packet.inverse[axis][r] = i;
-                packet.inverse_far[axis][r] = f;
-                let range = &mut packet.inverse_range[axis];
+                self.inverse[axis][r] = i;
+                self.inverse_far[axis][r] = f;
+                let range = &mut self.inverse_range[axis];
                 *range = (range.0.min(i), range.1.max(i));
-                let range = &mut packet.inverse_far_range[axis];
+                let range = &mut self.inverse_far_range[axis];
                 *range = (range.0.min(f), range.1.max(f));
             }
-            packet.t_min[r] = ray.t_min;
-            packet.t_max[r] = ray.t_max;
-            packet.lowest_t_min = packet.lowest_t_min.min(ray.t_min);
-            packet.queries[r] = query;
+            self.t_min[r] = ray.t_min;
+            self.t_max[r] = ray.t_max;
+            self.lowest_t_min = self.lowest_t_min.min(ray.t_min);
         }
-        Some(packet)
+        true
     }
 
     /// The mask of all rays.
@@ -174,9 +194,9 @@ fn count_frustum<C: Counters>(node: &BvhNode, active: u64, counters: &mut [C]) {
 
 /// Closest hits of a packet in one BVH (`hits[r].t` is ray `r`'s bound on entry).
 #[inline(always)]
-fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const N: usize>(
+fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters>(
     bvh: &Bvh<Triangle4>,
-    packet: &mut Packet<N>,
+    packet: &mut Packet,
     hits: &mut [Hit],
     counters: &mut [C],
 ) {
@@ -254,9 +274,9 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const N: usize>(
 
 /// Occlusion of a packet in one BVH: sets `occluded[r]` for every blocked ray.
 #[inline(always)]
-fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters, const N: usize>(
+fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters>(
     bvh: &Bvh<Triangle4>,
-    packet: &mut Packet<N>,
+    packet: &mut Packet,
     occluded: &mut [bool],
     counters: &mut [C],
 ) {
@@ -359,38 +379,18 @@ impl SceneAccel<Triangle4> {
     /// notes). `hits` and `counters` have one entry per ray.
     pub fn intersect_packet<I: Intersector, C: Counters>(
         &self,
+        buffer: &mut PacketBuffer,
         rays: &[Ray],
         hits: &mut [Hit],
         counters: &mut [C],
     ) {
         assert!(hits.len() == rays.len() && counters.len() == rays.len());
-        assert!(rays.len() <= MAX_PACKET_RAYS, "at most 64 rays per packet");
-        let traced = match rays.len() {
-            0..=8 => self.closest_packet::<I, C, 8>(rays, hits, counters),
-            9..=16 => self.closest_packet::<I, C, 16>(rays, hits, counters),
-            _ => self.closest_packet::<I, C, 64>(rays, hits, counters),
-        };
-        if !traced {
+        let packet = &mut *buffer.0;
+        let (None, Some(bvh), true) = (&self.tlas, self.blas.first(), packet.fill(rays)) else {
             for ((ray, hit), counter) in rays.iter().zip(hits.iter_mut()).zip(counters) {
                 *hit = self.intersect_by::<I, C>(ray, counter);
             }
-        }
-    }
-
-    /// [`Self::intersect_packet`] with room for `N` rays; false when the rays do not
-    /// form a packet (nothing traced).
-    #[inline(always)]
-    fn closest_packet<I: Intersector, C: Counters, const N: usize>(
-        &self,
-        rays: &[Ray],
-        hits: &mut [Hit],
-        counters: &mut [C],
-    ) -> bool {
-        let (None, Some(bvh)) = (&self.tlas, self.blas.first()) else {
-            return false;
-        };
-        let Some(mut packet) = Packet::<N>::new(rays) else {
-            return false;
+            return;
         };
         for (hit, ray) in hits.iter_mut().zip(rays) {
             *hit = Hit::MISS;
@@ -399,87 +399,65 @@ impl SceneAccel<Triangle4> {
         #[cfg(target_arch = "x86_64")]
         if super::lanes::has_avx() {
             // SAFETY: the CPU has AVX.
-            unsafe { closest_avx::<I, C, N>(bvh, &mut packet, hits, counters) };
+            unsafe { closest_avx::<I, C>(bvh, packet, hits, counters) };
         } else {
-            closest_in_bvh::<wide::f32x8, I, C, N>(bvh, &mut packet, hits, counters);
+            closest_in_bvh::<wide::f32x8, I, C>(bvh, packet, hits, counters);
         }
         #[cfg(not(target_arch = "x86_64"))]
-        closest_in_bvh::<wide::f32x8, I, C, N>(bvh, &mut packet, hits, counters);
+        closest_in_bvh::<wide::f32x8, I, C>(bvh, packet, hits, counters);
         for hit in hits.iter_mut() {
             if !hit.is_hit() {
                 hit.t = f32::INFINITY;
             }
         }
-        true
     }
 
     /// Occlusion of up to 64 rays with one origin (shadow rays from one hit point),
     /// traced as a packet with intersector `I`.
     pub fn occluded_packet<I: Intersector, C: Counters>(
         &self,
+        buffer: &mut PacketBuffer,
         rays: &[Ray],
         occluded: &mut [bool],
         counters: &mut [C],
     ) {
         assert!(occluded.len() == rays.len() && counters.len() == rays.len());
-        assert!(rays.len() <= MAX_PACKET_RAYS, "at most 64 rays per packet");
-        let traced = match rays.len() {
-            0..=8 => self.occluded_packet_in::<I, C, 8>(rays, occluded, counters),
-            9..=16 => self.occluded_packet_in::<I, C, 16>(rays, occluded, counters),
-            _ => self.occluded_packet_in::<I, C, 64>(rays, occluded, counters),
-        };
-        if !traced {
+        let packet = &mut *buffer.0;
+        let (None, Some(bvh), true) = (&self.tlas, self.blas.first(), packet.fill(rays)) else {
             for ((ray, blocked), counter) in rays.iter().zip(occluded.iter_mut()).zip(counters) {
                 *blocked = self.occluded_by::<I, C>(ray, counter);
             }
-        }
-    }
-
-    /// [`Self::occluded_packet`] with room for `N` rays; false when the rays do not
-    /// form a packet (nothing traced).
-    #[inline(always)]
-    fn occluded_packet_in<I: Intersector, C: Counters, const N: usize>(
-        &self,
-        rays: &[Ray],
-        occluded: &mut [bool],
-        counters: &mut [C],
-    ) -> bool {
-        let (None, Some(bvh)) = (&self.tlas, self.blas.first()) else {
-            return false;
-        };
-        let Some(mut packet) = Packet::<N>::new(rays) else {
-            return false;
+            return;
         };
         occluded.fill(false);
         #[cfg(target_arch = "x86_64")]
         if super::lanes::has_avx() {
             // SAFETY: the CPU has AVX.
-            unsafe { occluded_avx::<I, C, N>(bvh, &mut packet, occluded, counters) };
-            return true;
+            unsafe { occluded_avx::<I, C>(bvh, packet, occluded, counters) };
+            return;
         }
-        occluded_in_bvh::<wide::f32x8, I, C, N>(bvh, &mut packet, occluded, counters);
-        true
+        occluded_in_bvh::<wide::f32x8, I, C>(bvh, packet, occluded, counters);
     }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn closest_avx<I: Intersector, C: Counters, const N: usize>(
+unsafe fn closest_avx<I: Intersector, C: Counters>(
     bvh: &Bvh<Triangle4>,
-    packet: &mut Packet<N>,
+    packet: &mut Packet,
     hits: &mut [Hit],
     counters: &mut [C],
 ) {
-    closest_in_bvh::<super::lanes::Avx8, I, C, N>(bvh, packet, hits, counters)
+    closest_in_bvh::<super::lanes::Avx8, I, C>(bvh, packet, hits, counters)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn occluded_avx<I: Intersector, C: Counters, const N: usize>(
+unsafe fn occluded_avx<I: Intersector, C: Counters>(
     bvh: &Bvh<Triangle4>,
-    packet: &mut Packet<N>,
+    packet: &mut Packet,
     occluded: &mut [bool],
     counters: &mut [C],
 ) {
-    occluded_in_bvh::<super::lanes::Avx8, I, C, N>(bvh, packet, occluded, counters)
+    occluded_in_bvh::<super::lanes::Avx8, I, C>(bvh, packet, occluded, counters)
 }

@@ -14,6 +14,7 @@
 //! misses have no secondary ray.
 
 use super::intersect::Intersector;
+use super::packet::PacketBuffer;
 use super::{Counters, Hit, NoCounters, RayCounters, SceneAccel, Tracer};
 use crate::geom::{Aabb, Ray};
 use crate::mesh::Scene;
@@ -359,11 +360,12 @@ pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
     let mut counters = vec![C::default(); rays.len()];
     packet_items(rays, starts, &mut hits, &mut counters)
         .into_par_iter()
-        .for_each(|(rays, sizes, hits, counters)| {
+        .for_each_init(PacketBuffer::default, |buffer, (rays, sizes, hits, counters)| {
             let mut at = 0;
             for size in sizes {
                 let range = at..at + size;
                 accel.intersect_packet::<I, C>(
+                    buffer,
                     &rays[range.clone()],
                     &mut hits[range.clone()],
                     &mut counters[range],
@@ -397,6 +399,7 @@ pub fn measure_packets<I: Intersector>(
     let rays = &workload.rays;
     measure_closest(
         rays,
+        &workload.pixels,
         runs,
         || trace_packets_closest::<I, NoCounters>(accel, rays, starts).0,
         || trace_packets_closest::<I, RayCounters>(accel, rays, starts).1,
@@ -409,6 +412,7 @@ pub fn measure_by<I: Intersector>(accel: &SceneAccel, workload: &Workload, runs:
     let rays = &workload.rays;
     measure_closest(
         rays,
+        &workload.pixels,
         runs,
         || trace_closest_by::<I, NoCounters>(accel, rays).0,
         || trace_closest_by::<I, RayCounters>(accel, rays).1,
@@ -418,6 +422,7 @@ pub fn measure_by<I: Intersector>(accel: &SceneAccel, workload: &Workload, runs:
 /// Time `timed` `runs` times, then count once with `counted`.
 fn measure_closest(
     rays: &[Ray],
+    pixels: &[u32],
     runs: usize,
     timed: impl Fn() -> Vec<Hit>,
     counted: impl Fn() -> Vec<RayCounters>,
@@ -430,7 +435,7 @@ fn measure_closest(
         all_seconds.push(start.elapsed().as_secs_f64());
     }
     let found = hits.iter().filter(|h| h.is_hit()).count();
-    summarize(rays, all_seconds, found, hit_checksum(&hits), &counted())
+    summarize(rays, all_seconds, found, hit_checksum(&hits, pixels), &counted())
 }
 
 /// A [`TraceRun`] from timings, the hit count and checksum, and per-ray counters.
@@ -465,26 +470,27 @@ fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
-/// Order-independent checksum of which input triangle each ray hit: equal for two
-/// tracers (or leaf types) exactly when they hit the same (instance, triangle) per ray.
-pub fn hit_checksum(hits: &[Hit]) -> u64 {
+/// Checksum of which input triangle each pixel's ray hit (`pixels[i]` is ray `i`'s
+/// pixel): equal for two tracers, leaf types or ray orders (tiles or packets) exactly
+/// when they hit the same (instance, triangle) per pixel.
+pub fn hit_checksum(hits: &[Hit], pixels: &[u32]) -> u64 {
     hits.iter()
-        .enumerate()
-        .filter(|(_, h)| h.is_hit())
-        .fold(0u64, |sum, (i, h)| {
-            sum.wrapping_add(mix((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .zip(pixels)
+        .filter(|(h, _)| h.is_hit())
+        .fold(0u64, |sum, (h, &p)| {
+            sum.wrapping_add(mix((p as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
                 ^ ((h.instance as u64) << 32 | h.triangle as u64)))
         })
 }
 
-/// Checksum of which rays are occluded.
-pub fn occlusion_checksum(occluded: &[bool]) -> u64 {
+/// Checksum of which pixels' rays are occluded.
+pub fn occlusion_checksum(occluded: &[bool], pixels: &[u32]) -> u64 {
     occluded
         .iter()
-        .enumerate()
-        .filter(|(_, &o)| o)
-        .fold(0u64, |sum, (i, _)| {
-            sum.wrapping_add(mix((i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5))
+        .zip(pixels)
+        .filter(|(&o, _)| o)
+        .fold(0u64, |sum, (_, &p)| {
+            sum.wrapping_add(mix((p as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ 0xD1B5))
         })
 }
 
@@ -546,12 +552,12 @@ pub fn measure(tracer: &impl Tracer, workload: &Workload, runs: usize) -> TraceR
     }
     let (checksum, hits) = if shadow {
         (
-            occlusion_checksum(&occluded),
+            occlusion_checksum(&occluded, &workload.pixels),
             occluded.iter().filter(|&&o| o).count(),
         )
     } else {
         (
-            hit_checksum(&found),
+            hit_checksum(&found, &workload.pixels),
             found.iter().filter(|h| h.is_hit()).count(),
         )
     };
