@@ -111,11 +111,12 @@ enum Command {
         /// How to pair for --leaf pair: sah, sah-compressed, window:N, sah-max, max.
         #[arg(long, default_value = "sah")]
         pair_method: PairMethod,
-        /// Ray packets: auto, none, 2x2, 4x4 or 8x8. Packets of neighbouring camera
-        /// rays share an origin and traverse the BVH together (a frustum test per node
-        /// for the whole packet, then the exact test per ray). They pay for coherent
-        /// primary rays; diffuse and shadow rays start from different points, so auto
-        /// picks 8x8 for primary rays and single rays otherwise.
+        /// Ray packets: auto, none, 2x2, 4x4 or 8x8 blocks of pixels. A packet's rays
+        /// traverse the BVH together: a frustum test per node for the whole packet,
+        /// then the exact test per ray, and at camera packets (one origin) the
+        /// intersector's shared terms once per packet. They pay for coherent primary
+        /// rays and stop paying for diffuse bounces (origins and directions scattered),
+        /// so auto picks 8x8 for primary rays and single rays otherwise.
         #[arg(long, default_value = "auto")]
         packet: String,
         /// Ray-triangle test in the leaves: moller, moller-pre, moller-packet,
@@ -250,6 +251,38 @@ enum BenchCommand {
         size: (usize, usize),
         /// Timed rounds (medians are reported).
         #[arg(long, default_value_t = 5)]
+        runs: usize,
+        /// Print one JSON object per line instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Packet traversal against single rays, side by side on the same rays.
+    ///
+    /// Per mesh and workload: the default single-ray tracer, then packets of each
+    /// --packets shape with --intersector, timed in alternating rounds (medians),
+    /// with box and triangle tests per ray from a counted run, the speedup over
+    /// single rays, and whether every pixel hit the same triangle.
+    Packets {
+        /// Mesh files or builtin:NAME.
+        #[arg(required = true)]
+        meshes: Vec<String>,
+        /// Workloads, comma separated.
+        #[arg(long, value_delimiter = ',', default_value = "primary,diffuse,shadow")]
+        rays: Vec<RayKind>,
+        /// Packet shapes, comma separated (2x2, 4x4, 8x8).
+        #[arg(long, value_delimiter = ',', default_value = "2x2,4x4,8x8", value_parser = parse_packet)]
+        packets: Vec<usize>,
+        /// Ray-triangle test in the packets' leaves.
+        #[arg(long, default_value = "moller-packet")]
+        intersector: IntersectorKind,
+        /// Threads (0 = all cores).
+        #[arg(long, default_value_t = 2)]
+        threads: usize,
+        /// Image size WIDTHxHEIGHT.
+        #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
+        size: (usize, usize),
+        /// Timed rounds (medians are reported).
+        #[arg(long, default_value_t = 7)]
         runs: usize,
         /// Print one JSON object per line instead of a table.
         #[arg(long)]
@@ -484,18 +517,8 @@ fn run(cli: Cli) -> Result<()> {
                 "auto" | "none" => 1,
                 shape => parse_packet(shape).map_err(anyhow::Error::msg)?,
             };
-            if side > 1 && rays != RayKind::Primary {
-                anyhow::bail!(
-                    "--packet {packet}: packets need rays that share an origin (primary rays); \
-                     trace {} rays with --packet none",
-                    rays.name()
-                );
-            }
             if leaf == "pair" && (side > 1 || intersector.is_some()) {
                 anyhow::bail!("--packet and --intersector work with --leaf tri only");
-            }
-            if intersector.is_some() && rays == RayKind::Shadow {
-                anyhow::bail!("--intersector: shadow rays use the built-in test; trace primary or diffuse rays");
             }
             let scene = load(&mesh)?;
             let report = workload::with_threads(threads, || {
@@ -507,8 +530,7 @@ fn run(cli: Cli) -> Result<()> {
                         SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());
                     (pairs.stats(), workload::measure(&pairs, &work, runs))
                 } else if side > 1 {
-                    let camera = rtmesh::trace::Camera::default_for(&scene.bounds(), width, height);
-                    let (packed, starts) = Workload::primary_packets(&camera, width, height, side);
+                    let (packed, starts) = work.grouped(side);
                     work = packed;
                     let kind = intersector.unwrap_or(IntersectorKind::MollerPacket);
                     let run = kind.dispatch(MeasurePackets(&triangles, &work, &starts, runs));
@@ -628,6 +650,21 @@ fn run(cli: Cli) -> Result<()> {
                     json,
                 },
         } => bench_trace(&meshes, &vs, &rays, &threads, size, runs, builds, json),
+        Command::Bench {
+            what:
+                BenchCommand::Packets {
+                    meshes,
+                    rays,
+                    packets,
+                    intersector,
+                    threads,
+                    size,
+                    runs,
+                    json,
+                },
+        } => workload::with_threads(threads, || {
+            bench_packets(&meshes, &rays, &packets, intersector, size, runs, json)
+        }),
         Command::Bench {
             what:
                 BenchCommand::Intersect {
@@ -1113,6 +1150,87 @@ fn bench_intersect(
                     println!(
                         "{name:<22} {triangles:>9} {:<14} {:<6} {seconds:>9.4} {mrays:>9.3} {mtests:>10.1} {speedup:>7.2}x {:>7.3}%",
                         kind.name(), simd.name(), 100.0 * same
+                    );
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn bench_packets(
+    meshes: &[String],
+    kinds: &[RayKind],
+    sides: &[usize],
+    intersector: IntersectorKind,
+    (width, height): (usize, usize),
+    runs: usize,
+    json: bool,
+) -> Result<()> {
+    if !json {
+        println!(
+            "{:<22} {:<8} {:<22} {:>9} {:>8} {:>8} {:>9} {:>8} {:>5}",
+            "mesh", "workload", "traversal", "Mrays/s", "box/ray", "tri/ray", "seconds", "speedup", "same"
+        );
+    }
+    for mesh in meshes {
+        let scene = load(mesh)?;
+        let name = Path::new(mesh)
+            .file_name()
+            .and_then(|n| n.to_str())
+            .unwrap_or(mesh);
+        let accel = SceneAccel::build(&scene, &BuildSettings::default());
+        for &kind in kinds {
+            let work = Workload::generate(kind, &scene, &accel, width, height, 1);
+            let grouped: Vec<(usize, Workload, Vec<u32>)> = sides
+                .iter()
+                .map(|&side| {
+                    let (w, starts) = work.grouped(side);
+                    (side, w, starts)
+                })
+                .collect();
+            // Alternate configurations each round; runs = 1 per call, so every call
+            // also counts once (untimed).
+            let mut results: Vec<Vec<rtmesh::trace::TraceRun>> = vec![Vec::new(); sides.len() + 1];
+            for _ in 0..runs.max(1) {
+                results[0].push(workload::measure(&accel, &work, 1));
+                for (k, (_, w, starts)) in grouped.iter().enumerate() {
+                    results[k + 1].push(intersector.dispatch(MeasurePackets(&accel, w, starts, 1)));
+                }
+            }
+            let median = |runs: &[rtmesh::trace::TraceRun]| {
+                workload::median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>())
+            };
+            let base = median(&results[0]);
+            let reference = results[0][0].hit_checksum;
+            for (k, runs) in results.iter().enumerate() {
+                let label = if k == 0 {
+                    "single (builtin)".to_owned()
+                } else {
+                    let side = grouped[k - 1].0;
+                    format!("{side}x{side} {}", intersector.name())
+                };
+                let seconds = median(runs);
+                let run = &runs[0];
+                let mrays = run.rays as f64 / seconds / 1e6;
+                let same = run.hit_checksum == reference;
+                if json {
+                    println!(
+                        "{}",
+                        serde_json::json!({
+                            "mesh": name, "workload": kind.name(), "traversal": label,
+                            "rays": run.rays, "threads": rayon::current_num_threads(),
+                            "seconds": seconds, "mrays_per_s": mrays,
+                            "box_tests_per_ray": run.box_tests_per_ray,
+                            "tri_tests_per_ray": run.tri_tests_per_ray,
+                            "speedup": base / seconds, "same_hits_checksum": same,
+                        })
+                    );
+                } else {
+                    println!(
+                        "{name:<22} {:<8} {label:<22} {mrays:>9.2} {:>8.2} {:>8.2} {seconds:>9.4} {:>7.2}x {:>5}",
+                        kind.name(), run.box_tests_per_ray, run.tri_tests_per_ray, base / seconds,
+                        if same { "yes" } else { "ties" }
                     );
                 }
             }

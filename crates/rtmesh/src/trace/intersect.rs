@@ -34,7 +34,7 @@
 //! NaN directions all miss (a zero or non-finite denominator fails every range test).
 
 use super::lanes::{Lanes, V3};
-use super::{Hit, RayQuery};
+use super::Hit;
 use crate::geom::Ray;
 use crate::mesh::TriMesh;
 use glam::Vec3;
@@ -171,21 +171,49 @@ impl<L: Lanes> LaneHits<L> {
     }
 }
 
-/// A ray–triangle test over [`Lanes`], split into what rays sharing an origin share
+/// What every intersector reads of a ray.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BasicRay {
+    /// Origin.
+    pub origin: Vec3,
+    /// Direction.
+    pub direction: Vec3,
+    /// Smallest accepted distance.
+    pub t_min: f32,
+}
+
+impl From<&Ray> for BasicRay {
+    #[inline(always)]
+    fn from(ray: &Ray) -> Self {
+        Self {
+            origin: ray.origin,
+            direction: ray.direction,
+            t_min: ray.t_min,
+        }
+    }
+}
+
+/// A ray–triangle test over [`Lanes`], split into what each ray needs once
+/// ([`Intersector::prepare`]), what rays sharing an origin share
 /// ([`Intersector::share`], once per packet and triangle lanes) and what each ray
-/// does ([`Intersector::test`]). Single rays call both.
+/// does per test ([`Intersector::test`]). Single rays call all three.
 pub trait Intersector: Copy + Default + Send + Sync + 'static {
     /// Which one this is.
     const KIND: IntersectorKind;
+    /// Per-ray terms beyond [`BasicRay`] (`()` for all but the watertight test).
+    type PerRay: Copy + Default;
     /// The per-(packet, triangle lanes) terms.
     type Shared<L: Lanes>: Copy;
+    /// Per-ray terms of `ray`.
+    fn prepare(ray: &BasicRay) -> Self::PerRay;
     /// Terms shared by all rays from `origin`.
     fn share<L: Lanes>(triangles: &impl TriangleLanes<L>, origin: Vec3) -> Self::Shared<L>;
     /// The lanes `ray` hits inside `(ray.t_min, t_max)`, or `None` when none is.
     fn test<L: Lanes>(
         triangles: &impl TriangleLanes<L>,
         shared: &Self::Shared<L>,
-        ray: &RayQuery,
+        ray: &BasicRay,
+        per_ray: &Self::PerRay,
         t_max: f32,
     ) -> Option<LaneHits<L>>;
 }
@@ -197,7 +225,7 @@ fn accept_t<L: Lanes>(
     t: L,
     u: L,
     v: L,
-    ray: &RayQuery,
+    ray: &BasicRay,
     t_max: f32,
 ) -> Option<LaneHits<L>> {
     let mask = mask & L::lt(L::splat(ray.t_min), t) & L::lt(t, L::splat(t_max));
@@ -215,7 +243,7 @@ fn accept_scaled<L: Lanes>(
     u: L,
     v: L,
     scale: L,
-    ray: &RayQuery,
+    ray: &BasicRay,
     t_max: f32,
 ) -> Option<LaneHits<L>> {
     let mask = mask
@@ -245,14 +273,18 @@ pub struct Moller;
 
 impl Intersector for Moller {
     const KIND: IntersectorKind = IntersectorKind::Moller;
+    type PerRay = ();
     type Shared<L: Lanes> = ();
+    #[inline(always)]
+    fn prepare(_: &BasicRay) {}
     #[inline(always)]
     fn share<L: Lanes>(_: &impl TriangleLanes<L>, _: Vec3) {}
     #[inline(always)]
     fn test<L: Lanes>(
         triangles: &impl TriangleLanes<L>,
         _: &(),
-        ray: &RayQuery,
+        ray: &BasicRay,
+        _: &(),
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let v0 = triangles.v0();
@@ -285,14 +317,18 @@ pub struct MollerPre;
 
 impl Intersector for MollerPre {
     const KIND: IntersectorKind = IntersectorKind::MollerPre;
+    type PerRay = ();
     type Shared<L: Lanes> = ();
+    #[inline(always)]
+    fn prepare(_: &BasicRay) {}
     #[inline(always)]
     fn share<L: Lanes>(_: &impl TriangleLanes<L>, _: Vec3) {}
     #[inline(always)]
     fn test<L: Lanes>(
         triangles: &impl TriangleLanes<L>,
         _: &(),
-        ray: &RayQuery,
+        ray: &BasicRay,
+        _: &(),
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
@@ -331,7 +367,10 @@ pub struct MollerPacketTerms<L> {
 
 impl Intersector for MollerPacket {
     const KIND: IntersectorKind = IntersectorKind::MollerPacket;
+    type PerRay = ();
     type Shared<L: Lanes> = MollerPacketTerms<L>;
+    #[inline(always)]
+    fn prepare(_: &BasicRay) {}
     #[inline(always)]
     fn share<L: Lanes>(triangles: &impl TriangleLanes<L>, origin: Vec3) -> MollerPacketTerms<L> {
         let s = V3::splat(origin).sub(triangles.v0());
@@ -347,7 +386,8 @@ impl Intersector for MollerPacket {
     fn test<L: Lanes>(
         _: &impl TriangleLanes<L>,
         terms: &MollerPacketTerms<L>,
-        ray: &RayQuery,
+        ray: &BasicRay,
+        _: &(),
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
@@ -381,7 +421,10 @@ pub struct PlueckerTerms<L> {
 
 impl Intersector for Pluecker {
     const KIND: IntersectorKind = IntersectorKind::Pluecker;
+    type PerRay = ();
     type Shared<L: Lanes> = PlueckerTerms<L>;
+    #[inline(always)]
+    fn prepare(_: &BasicRay) {}
     #[inline(always)]
     fn share<L: Lanes>(triangles: &impl TriangleLanes<L>, origin: Vec3) -> PlueckerTerms<L> {
         let o = V3::splat(origin);
@@ -401,7 +444,8 @@ impl Intersector for Pluecker {
     fn test<L: Lanes>(
         _: &impl TriangleLanes<L>,
         terms: &PlueckerTerms<L>,
-        ray: &RayQuery,
+        ray: &BasicRay,
+        _: &(),
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
@@ -432,14 +476,48 @@ impl Intersector for Pluecker {
     }
 }
 
+/// The watertight test's per-ray terms: axes `[kx, ky, kz]` (`kz` the largest
+/// |direction| component, `kx` and `ky` the next two, swapped when `direction[kz] < 0`
+/// to keep the winding) and the shear `(d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz])` (as
+/// products with `1 / d[kz]`).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Shear {
+    axes: [usize; 3],
+    shear: Vec3,
+}
+
 /// Woop et al.'s watertight test.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Watertight;
 
 impl Intersector for Watertight {
     const KIND: IntersectorKind = IntersectorKind::Watertight;
+    type PerRay = Shear;
     /// The corners relative to the packet origin.
     type Shared<L: Lanes> = [V3<L>; 3];
+    #[inline(always)]
+    fn prepare(ray: &BasicRay) -> Shear {
+        let d = ray.direction;
+        let magnitude = d.abs();
+        let kz = if magnitude.x >= magnitude.y && magnitude.x >= magnitude.z {
+            0
+        } else if magnitude.y >= magnitude.z {
+            1
+        } else {
+            2
+        };
+        let (kx, ky) = if d[kz] < 0.0 {
+            ((kz + 2) % 3, (kz + 1) % 3)
+        } else {
+            ((kz + 1) % 3, (kz + 2) % 3)
+        };
+        // An exact division: a zero direction gives NaN shears, so it misses.
+        let inverse_z = 1.0 / d[kz];
+        Shear {
+            axes: [kx, ky, kz],
+            shear: Vec3::new(d[kx] * inverse_z, d[ky] * inverse_z, inverse_z),
+        }
+    }
     #[inline(always)]
     fn share<L: Lanes>(triangles: &impl TriangleLanes<L>, origin: Vec3) -> [V3<L>; 3] {
         let o = V3::splat(origin);
@@ -453,11 +531,12 @@ impl Intersector for Watertight {
     fn test<L: Lanes>(
         _: &impl TriangleLanes<L>,
         corners: &[V3<L>; 3],
-        ray: &RayQuery,
+        ray: &BasicRay,
+        shear: &Shear,
         t_max: f32,
     ) -> Option<LaneHits<L>> {
-        let [kx, ky, kz] = ray.axes;
-        let (sx, sy) = (L::splat(ray.shear.x), L::splat(ray.shear.y));
+        let [kx, ky, kz] = shear.axes;
+        let (sx, sy) = (L::splat(shear.shear.x), L::splat(shear.shear.y));
         let sheared = |p: &V3<L>| {
             let z = p.axis(kz);
             (p.axis(kx) - sx * z, p.axis(ky) - sy * z)
@@ -476,7 +555,7 @@ impl Intersector for Watertight {
         if !L::any(mask) {
             return None;
         }
-        let sz = L::splat(ray.shear.z);
+        let sz = L::splat(shear.shear.z);
         let scaled_t = edge_u * (sz * corners[0].axis(kz))
             + edge_v * (sz * corners[1].axis(kz))
             + edge_w * (sz * corners[2].axis(kz));
@@ -538,7 +617,8 @@ pub fn intersect_triangle<I: Intersector>(corners: [Vec3; 3], ray: &Ray) -> Opti
         normal: e1.cross(e2),
     };
     let shared = I::share::<f32>(&triangle, ray.origin);
-    let hit = I::test::<f32>(&triangle, &shared, &RayQuery::new(ray), ray.t_max)?;
+    let basic = BasicRay::from(ray);
+    let hit = I::test::<f32>(&triangle, &shared, &basic, &I::prepare(&basic), ray.t_max)?;
     hit.nearest().map(|(_, t, u, v)| (t, u, v))
 }
 
@@ -704,16 +784,17 @@ pub fn packet_closest_without_bvh<I: Intersector, L: Lanes>(
     let Some(first) = rays.first() else {
         return;
     };
-    let mut prepared = [RayQuery::new(first); MAX_PACKET_RAYS];
+    let mut prepared = [(BasicRay::from(first), I::PerRay::default()); MAX_PACKET_RAYS];
     for (p, ray) in prepared.iter_mut().zip(rays) {
-        *p = RayQuery::new(ray);
+        let basic = BasicRay::from(ray);
+        *p = (basic, I::prepare(&basic));
     }
     let prepared = &prepared[..rays.len()];
     for index in (0..soa.len()).step_by(L::WIDTH) {
         let lanes = soa.lanes(index);
         let shared = I::share::<L>(&lanes, first.origin);
-        for (ray, hit) in prepared.iter().zip(hits.iter_mut()) {
-            if let Some(found) = I::test::<L>(&lanes, &shared, ray, hit.t) {
+        for ((ray, per_ray), hit) in prepared.iter().zip(hits.iter_mut()) {
+            if let Some(found) = I::test::<L>(&lanes, &shared, ray, per_ray, hit.t) {
                 if let Some((lane, t, u, v)) = found.nearest() {
                     *hit = Hit {
                         t,

@@ -174,33 +174,29 @@ pub struct RayQuery {
     pub near_plane: [usize; 3],
     /// Per axis, the plane index left last (the opposite of `near_plane`).
     pub far_plane: [usize; 3],
-    /// For the watertight triangle test: axes `[kx, ky, kz]`, `kz` the largest
-    /// |direction| component, `kx` and `ky` the next two, swapped when
-    /// `direction[kz] < 0` to keep the winding.
-    pub axes: [usize; 3],
-    /// For the watertight triangle test: the shear
-    /// `(d[kx] / d[kz], d[ky] / d[kz], 1 / d[kz])` (as products with `1 / d[kz]`).
-    pub shear: Vec3,
 }
 
 /// 1 + 2γ₃ with γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴.
-const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * (1.5 * f32::EPSILON) / (1.0 - 1.5 * f32::EPSILON);
+pub(crate) const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * (1.5 * f32::EPSILON) / (1.0 - 1.5 * f32::EPSILON);
+
+/// `1 / d`, with `|d|` below 1e-18 replaced by ±1e-18 (the sign of `d` kept).
+#[inline(always)]
+pub(crate) fn safe_reciprocal(d: f32) -> f32 {
+    1.0 / if d.abs() < 1e-18 {
+        1e-18f32.copysign(d)
+    } else {
+        d
+    }
+}
 
 impl RayQuery {
     /// Prepare `ray`.
     #[inline(always)]
     pub fn new(ray: &Ray) -> Self {
-        let safe = |d: f32| {
-            if d.abs() < 1e-18 {
-                1e-18f32.copysign(d)
-            } else {
-                d
-            }
-        };
         let inverse_direction = Vec3::new(
-            1.0 / safe(ray.direction.x),
-            1.0 / safe(ray.direction.y),
-            1.0 / safe(ray.direction.z),
+            safe_reciprocal(ray.direction.x),
+            safe_reciprocal(ray.direction.y),
+            safe_reciprocal(ray.direction.z),
         );
         let near = |axis: usize| {
             if inverse_direction[axis] >= 0.0 {
@@ -209,29 +205,10 @@ impl RayQuery {
                 axis + 3
             }
         };
-        let d = ray.direction;
-        let magnitude = d.abs();
-        let kz = if magnitude.x >= magnitude.y && magnitude.x >= magnitude.z {
-            0
-        } else if magnitude.y >= magnitude.z {
-            1
-        } else {
-            2
-        };
-        let (kx, ky) = if d[kz] < 0.0 {
-            ((kz + 2) % 3, (kz + 1) % 3)
-        } else {
-            ((kz + 1) % 3, (kz + 2) % 3)
-        };
-        // One exact division (not the clamped reciprocal: a zero direction must give
-        // NaN shears, so that it misses).
-        let inverse_z = 1.0 / d[kz];
         Self {
             origin: ray.origin,
             direction: ray.direction,
             t_min: ray.t_min,
-            axes: [kx, ky, kz],
-            shear: Vec3::new(d[kx] * inverse_z, d[ky] * inverse_z, inverse_z),
             inverse_direction,
             inverse_direction_far: inverse_direction * ROBUST_FAR_SCALE,
             near_plane: [near(0), near(1), near(2)],

@@ -17,15 +17,16 @@
 //! Exactness: a ray's box tests use the very operations of single-ray traversal, so a
 //! ray enters every box it would enter alone, and its leaf tests are the single-ray
 //! tests; the closest hit is the same, up to the order in which exact ties in `t` are
-//! met. Packets whose rays do not share an origin, or whose directions differ in sign
-//! on some axis (the frustum needs one near plane per axis), and scenes with a top
-//! level, are traced ray by ray.
+//! met. Rays need not share an origin or direction signs: such packets (diffuse
+//! bounces of neighbouring pixels) take a general form that reads each ray's origin,
+//! tests both planes per axis, and computes the intersector's shared terms per ray.
+//! Scenes with a top level are traced ray by ray.
 
-use super::intersect::{Intersector, MAX_PACKET_RAYS};
+use super::intersect::{BasicRay, Intersector, MAX_PACKET_RAYS};
 use super::lanes::Lanes;
 use super::traverse::Stack;
 use super::triangle::Triangle4;
-use super::{Counters, Hit, RayQuery, SceneAccel};
+use super::{safe_reciprocal, Counters, Hit, RayQuery, SceneAccel, ROBUST_FAR_SCALE};
 use crate::bvh::{Bvh, BvhNode, Child, EMPTY_CHILD, WIDTH};
 use crate::geom::Ray;
 use glam::Vec3;
@@ -33,9 +34,17 @@ use wide::f32x4;
 
 /// Rays of one packet, structure of arrays, room for 64 rays.
 struct Packet {
+    /// The first ray's origin (all rays' when `shared_origin`).
     origin: Vec3,
     len: usize,
-    queries: [RayQuery; MAX_PACKET_RAYS],
+    shared_origin: bool,
+    /// Some axis has directions of both signs: no common near plane.
+    mixed_signs: bool,
+    origins: [[f32; MAX_PACKET_RAYS]; 3],
+    directions: [[f32; MAX_PACKET_RAYS]; 3],
+    /// Per axis, the smallest and largest origin coordinate.
+    origin_range: [(f32, f32); 3],
+    rays: [BasicRay; MAX_PACKET_RAYS],
     inverse: [[f32; MAX_PACKET_RAYS]; 3],
     inverse_far: [[f32; MAX_PACKET_RAYS]; 3],
     t_min: [f32; MAX_PACKET_RAYS],
@@ -55,17 +64,22 @@ pub struct PacketBuffer(Box<Packet>);
 
 impl Default for PacketBuffer {
     fn default() -> Self {
-        let query = RayQuery::new(&Ray::new(Vec3::ZERO, Vec3::ONE));
+        let ray = BasicRay::from(&Ray::new(Vec3::ZERO, Vec3::ONE));
         Self(Box::new(Packet {
             origin: Vec3::ZERO,
             len: 0,
-            queries: [query; MAX_PACKET_RAYS],
+            shared_origin: true,
+            mixed_signs: false,
+            origins: [[0.0; MAX_PACKET_RAYS]; 3],
+            directions: [[0.0; MAX_PACKET_RAYS]; 3],
+            origin_range: [(0.0, 0.0); 3],
+            rays: [ray; MAX_PACKET_RAYS],
             inverse: [[0.0; MAX_PACKET_RAYS]; 3],
             inverse_far: [[0.0; MAX_PACKET_RAYS]; 3],
             t_min: [0.0; MAX_PACKET_RAYS],
             t_max: [0.0; MAX_PACKET_RAYS],
-            near_plane: query.near_plane,
-            far_plane: query.far_plane,
+            near_plane: [0, 1, 2],
+            far_plane: [3, 4, 5],
             inverse_range: [(0.0, 0.0); 3],
             inverse_far_range: [(0.0, 0.0); 3],
             lowest_t_min: 0.0,
@@ -74,48 +88,75 @@ impl Default for PacketBuffer {
 }
 
 impl Packet {
-    /// Prepare `rays` (1 to 64); false when they do not share an origin or their
-    /// direction signs differ on some axis. Slots past `rays.len()` keep stale values,
-    /// which the ray masks never read.
+    /// Prepare `rays` (1 to 64): copy them structure-of-arrays, then compute the
+    /// reciprocal directions (the single-ray [`RayQuery`] values, bit for bit) and
+    /// the packet's ranges eight rays at a time. Slots past `rays.len()` keep stale
+    /// values, which the ray masks never read.
     #[inline(always)]
-    fn fill(&mut self, rays: &[Ray]) -> bool {
-        let Some(first) = rays.first() else {
-            return false;
-        };
-        if rays.len() > MAX_PACKET_RAYS || rays.iter().any(|r| r.origin != first.origin) {
-            return false;
-        }
-        self.origin = first.origin;
+    fn fill<L: Lanes>(&mut self, rays: &[Ray]) {
+        debug_assert!(L::WIDTH == 8 && !rays.is_empty() && rays.len() <= MAX_PACKET_RAYS);
+        let first = rays[0].origin;
+        self.origin = first;
         self.len = rays.len();
-        self.inverse_range = [(f32::INFINITY, f32::NEG_INFINITY); 3];
-        self.inverse_far_range = [(f32::INFINITY, f32::NEG_INFINITY); 3];
+        self.shared_origin = true;
         self.lowest_t_min = f32::INFINITY;
         for (r, ray) in rays.iter().enumerate() {
-            self.queries[r] = RayQuery::new(ray);
-            let query = &self.queries[r];
-            if r == 0 {
-                self.near_plane = query.near_plane;
-                self.far_plane = query.far_plane;
-            } else if query.near_plane != self.near_plane {
-                return false;
-            }
+            self.rays[r] = BasicRay::from(ray);
             for axis in 0..3 {
-                let (i, f) = (
-                    query.inverse_direction[axis],
-                    query.inverse_direction_far[axis],
-                );
-                self.inverse[axis][r] = i;
-                self.inverse_far[axis][r] = f;
-                let range = &mut self.inverse_range[axis];
-                *range = (range.0.min(i), range.1.max(i));
-                let range = &mut self.inverse_far_range[axis];
-                *range = (range.0.min(f), range.1.max(f));
+                self.origins[axis][r] = ray.origin[axis];
+                self.directions[axis][r] = ray.direction[axis];
             }
             self.t_min[r] = ray.t_min;
             self.t_max[r] = ray.t_max;
+            self.shared_origin &= ray.origin == first;
             self.lowest_t_min = self.lowest_t_min.min(ray.t_min);
         }
-        true
+        // Pad the last group of eight with the first ray: no effect on the ranges.
+        let padded = rays.len().div_ceil(8) * 8;
+        for axis in 0..3 {
+            for r in rays.len()..padded {
+                self.origins[axis][r] = self.origins[axis][0];
+                self.directions[axis][r] = self.directions[axis][0];
+            }
+        }
+        self.mixed_signs = false;
+        for axis in 0..3 {
+            let (mut low, mut high) = (L::splat(f32::INFINITY), L::splat(f32::NEG_INFINITY));
+            let (mut far_low, mut far_high) = (low, high);
+            let (mut o_low, mut o_high) = (low, high);
+            for base in (0..padded).step_by(8) {
+                let d = L::load(&self.directions[axis][base..]);
+                self.inverse[axis][base..base + 8]
+                    .copy_from_slice(&(L::splat(1.0) / d).to_array());
+                let mut tiny = L::bitmask(L::lt(d.abs(), L::splat(1e-18)));
+                while tiny != 0 {
+                    let r = base + tiny.trailing_zeros() as usize;
+                    self.inverse[axis][r] = safe_reciprocal(self.directions[axis][r]);
+                    tiny &= tiny - 1;
+                }
+                let inverse = L::load(&self.inverse[axis][base..]);
+                let inverse_far = inverse * L::splat(ROBUST_FAR_SCALE);
+                self.inverse_far[axis][base..base + 8].copy_from_slice(&inverse_far.to_array());
+                low = low.min(inverse);
+                high = high.max(inverse);
+                far_low = far_low.min(inverse_far);
+                far_high = far_high.max(inverse_far);
+                let o = L::load(&self.origins[axis][base..]);
+                o_low = o_low.min(o);
+                o_high = o_high.max(o);
+            }
+            let reduce = |lanes: L, f: fn(f32, f32) -> f32| {
+                lanes.to_array().into_iter().reduce(f).unwrap_or(0.0)
+            };
+            self.inverse_range[axis] = (reduce(low, f32::min), reduce(high, f32::max));
+            self.inverse_far_range[axis] = (reduce(far_low, f32::min), reduce(far_high, f32::max));
+            self.origin_range[axis] = (reduce(o_low, f32::min), reduce(o_high, f32::max));
+            let (lowest, highest) = self.inverse_range[axis];
+            self.mixed_signs |= lowest < 0.0 && highest >= 0.0;
+            // As `RayQuery::new` picks: the low plane when the reciprocal is ≥ 0.
+            self.near_plane[axis] = if lowest >= 0.0 { axis } else { axis + 3 };
+            self.far_plane[axis] = (self.near_plane[axis] + 3) % 6;
+        }
     }
 
     /// The mask of all rays.
@@ -128,29 +169,62 @@ impl Packet {
     }
 
     /// Frustum test of `node`'s eight children: entry distances and the mask of those
-    /// some ray of the packet may enter.
+    /// some ray of the packet may enter. With one origin and one direction sign per
+    /// axis, each slab's distances over the packet lie between the products with the
+    /// smallest and largest reciprocal; in the `GENERAL` case (origins spread, or
+    /// signs mixed) both planes and the origin range enter the interval product.
+    /// Rounding is monotone, so the bounds hold for every ray's own float test.
     #[inline(always)]
-    fn frustum<L: Lanes>(&self, node: &BvhNode) -> ([f32; 8], u32) {
+    fn frustum<L: Lanes, const GENERAL: bool>(&self, node: &BvhNode) -> ([f32; 8], u32) {
         let mut near = L::splat(self.lowest_t_min);
         let mut far = L::splat(f32::INFINITY);
         for axis in 0..3 {
-            let o = L::splat(self.origin[axis]);
-            let to_near = L::load(&node.planes[self.near_plane[axis]]) - o;
             let (low, high) = self.inverse_range[axis];
-            near = near.max((to_near * L::splat(low)).min(to_near * L::splat(high)));
-            let to_far = L::load(&node.planes[self.far_plane[axis]]) - o;
-            let (low, high) = self.inverse_far_range[axis];
-            far = far.min((to_far * L::splat(low)).max(to_far * L::splat(high)));
+            let (far_low, far_high) = self.inverse_far_range[axis];
+            if GENERAL {
+                let (o_low, o_high) = self.origin_range[axis];
+                let (mut lower, mut upper) = (L::splat(f32::INFINITY), L::splat(f32::NEG_INFINITY));
+                for plane in [axis, axis + 3] {
+                    let p = L::load(&node.planes[plane]);
+                    for d in [p - L::splat(o_low), p - L::splat(o_high)] {
+                        lower = lower.min((d * L::splat(low)).min(d * L::splat(high)));
+                        upper = upper.max((d * L::splat(far_low)).max(d * L::splat(far_high)));
+                    }
+                }
+                near = near.max(lower);
+                far = far.min(upper);
+            } else {
+                let o = L::splat(self.origin[axis]);
+                let to_near = L::load(&node.planes[self.near_plane[axis]]) - o;
+                near = near.max((to_near * L::splat(low)).min(to_near * L::splat(high)));
+                let to_far = L::load(&node.planes[self.far_plane[axis]]) - o;
+                far = far.min((to_far * L::splat(far_low)).max(to_far * L::splat(far_high)));
+            }
         }
-        (near.to_array(), L::bitmask(L::le(near, far)))
+        let mut mask = L::bitmask(L::le(near, far));
+        if GENERAL {
+            // Inverted (empty) boxes pass the two-plane test; drop them here.
+            for (lane, &child) in node.children.iter().enumerate() {
+                if child == EMPTY_CHILD {
+                    mask &= !(1 << lane);
+                }
+            }
+        }
+        (near.to_array(), mask)
     }
 
     /// The rays of `active` whose single-ray slab test enters child `lane` of `node`
-    /// before their current closest hit, eight rays per SIMD test.
+    /// before their current closest hit, eight rays per SIMD test. The `GENERAL` form
+    /// reads each ray's origin and takes the nearer and farther of both planes per
+    /// axis, which for a non-empty box are exactly the planes a single ray picks by
+    /// its direction's sign (the caller never asks about empty children).
     #[inline(always)]
-    fn rays_entering<L: Lanes>(&self, node: &BvhNode, lane: usize, active: u64) -> u64 {
-        let to_near = [0, 1, 2].map(|a| node.planes[self.near_plane[a]][lane] - self.origin[a]);
-        let to_far = [0, 1, 2].map(|a| node.planes[self.far_plane[a]][lane] - self.origin[a]);
+    fn rays_entering<L: Lanes, const GENERAL: bool>(
+        &self,
+        node: &BvhNode,
+        lane: usize,
+        active: u64,
+    ) -> u64 {
         let mut entering = 0u64;
         let mut groups = active;
         while groups != 0 {
@@ -158,8 +232,21 @@ impl Packet {
             let mut near = L::load(&self.t_min[base..]);
             let mut far = L::load(&self.t_max[base..]);
             for axis in 0..3 {
-                near = near.max(L::splat(to_near[axis]) * L::load(&self.inverse[axis][base..]));
-                far = far.min(L::splat(to_far[axis]) * L::load(&self.inverse_far[axis][base..]));
+                let inverse = L::load(&self.inverse[axis][base..]);
+                let inverse_far = L::load(&self.inverse_far[axis][base..]);
+                if GENERAL {
+                    let o = L::load(&self.origins[axis][base..]);
+                    let to_low = L::splat(node.planes[axis][lane]) - o;
+                    let to_high = L::splat(node.planes[axis + 3][lane]) - o;
+                    near = near.max((to_low * inverse).min(to_high * inverse));
+                    far = far.min((to_low * inverse_far).max(to_high * inverse_far));
+                } else {
+                    let o = self.origin[axis];
+                    let to_near = node.planes[self.near_plane[axis]][lane] - o;
+                    let to_far = node.planes[self.far_plane[axis]][lane] - o;
+                    near = near.max(L::splat(to_near) * inverse);
+                    far = far.min(L::splat(to_far) * inverse_far);
+                }
             }
             entering |= (L::bitmask(L::le(near, far)) as u64) << base;
             groups &= !(0xFFu64 << base);
@@ -194,12 +281,14 @@ fn count_frustum<C: Counters>(node: &BvhNode, active: u64, counters: &mut [C]) {
 
 /// Closest hits of a packet in one BVH (`hits[r].t` is ray `r`'s bound on entry).
 #[inline(always)]
-fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters>(
+fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
     bvh: &Bvh<Triangle4>,
     packet: &mut Packet,
     hits: &mut [Hit],
     counters: &mut [C],
 ) {
+    let per_ray: [I::PerRay; MAX_PACKET_RAYS] =
+        std::array::from_fn(|r| I::prepare(&packet.rays[r]));
     let mut stack = Stack::<(u32, u64)>::new();
     let mut current = (bvh.root, packet.all());
     loop {
@@ -208,14 +297,14 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters>(
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_frustum(node, active, counters);
-                let (near, mut candidates) = packet.frustum::<L>(node);
+                let (near, mut candidates) = packet.frustum::<L, GENERAL>(node);
                 // Entered children sorted by frustum entry distance, nearest last.
                 let mut entered = [(0u32, 0u64, 0.0f32); WIDTH];
                 let mut n = 0;
                 while candidates != 0 {
                     let lane = candidates.trailing_zeros() as usize;
                     candidates &= candidates - 1;
-                    let rays = packet.rays_entering::<L>(node, lane, active);
+                    let rays = packet.rays_entering::<L, GENERAL>(node, lane, active);
                     if C::ENABLED {
                         for r in bits(active) {
                             counters[r].box_tests(1);
@@ -243,12 +332,16 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters>(
             }
             Child::Leaf { first, count } => {
                 for block in &bvh.primitives[first as usize..(first + count) as usize] {
-                    let shared = I::share::<f32x4>(block, packet.origin);
+                    let mut shared = I::share::<f32x4>(block, packet.origin);
                     for r in bits(active) {
                         if C::ENABLED {
                             counters[r].triangle_tests(block.count);
                         }
-                        let found = I::test::<f32x4>(block, &shared, &packet.queries[r], hits[r].t);
+                        let ray = &packet.rays[r];
+                        if GENERAL && !packet.shared_origin {
+                            shared = I::share::<f32x4>(block, ray.origin);
+                        }
+                        let found = I::test::<f32x4>(block, &shared, ray, &per_ray[r], hits[r].t);
                         if let Some((lane, t, u, v)) = found.and_then(|f| f.nearest()) {
                             hits[r] = Hit {
                                 t,
@@ -274,12 +367,14 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters>(
 
 /// Occlusion of a packet in one BVH: sets `occluded[r]` for every blocked ray.
 #[inline(always)]
-fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters>(
+fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
     bvh: &Bvh<Triangle4>,
     packet: &mut Packet,
     occluded: &mut [bool],
     counters: &mut [C],
 ) {
+    let per_ray: [I::PerRay; MAX_PACKET_RAYS] =
+        std::array::from_fn(|r| I::prepare(&packet.rays[r]));
     let mut stack = Stack::<(u32, u64)>::new();
     let mut blocked = 0u64;
     let mut current = (bvh.root, packet.all());
@@ -290,12 +385,12 @@ fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters>(
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_frustum(node, active, counters);
-                let (_, mut candidates) = packet.frustum::<L>(node);
+                let (_, mut candidates) = packet.frustum::<L, GENERAL>(node);
                 let mut next = None;
                 while candidates != 0 {
                     let lane = candidates.trailing_zeros() as usize;
                     candidates &= candidates - 1;
-                    let rays = packet.rays_entering::<L>(node, lane, active);
+                    let rays = packet.rays_entering::<L, GENERAL>(node, lane, active);
                     if C::ENABLED {
                         for r in bits(active) {
                             counters[r].box_tests(1);
@@ -314,13 +409,17 @@ fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters>(
             }
             Child::Leaf { first, count } => {
                 for block in &bvh.primitives[first as usize..(first + count) as usize] {
-                    let shared = I::share::<f32x4>(block, packet.origin);
+                    let mut shared = I::share::<f32x4>(block, packet.origin);
                     for r in bits(active & !blocked) {
                         if C::ENABLED {
                             counters[r].triangle_tests(block.count);
                         }
-                        let query = &packet.queries[r];
-                        if I::test::<f32x4>(block, &shared, query, packet.t_max[r]).is_some() {
+                        let ray = &packet.rays[r];
+                        if GENERAL && !packet.shared_origin {
+                            shared = I::share::<f32x4>(block, ray.origin);
+                        }
+                        let t_max = packet.t_max[r];
+                        if I::test::<f32x4>(block, &shared, ray, &per_ray[r], t_max).is_some() {
                             blocked |= 1 << r;
                             occluded[r] = true;
                         }
@@ -342,8 +441,10 @@ fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters>(
 /// Test one leaf block for one ray with intersector `I`; record a closer hit.
 #[inline(always)]
 fn block_closest<I: Intersector>(block: &Triangle4, query: &RayQuery, hit: &mut Hit) -> bool {
-    let shared = I::share::<f32x4>(block, query.origin);
-    match I::test::<f32x4>(block, &shared, query, hit.t).and_then(|f| f.nearest()) {
+    let ray = basic(query);
+    let shared = I::share::<f32x4>(block, ray.origin);
+    let found = I::test::<f32x4>(block, &shared, &ray, &I::prepare(&ray), hit.t);
+    match found.and_then(|f| f.nearest()) {
         Some((lane, t, u, v)) => {
             hit.t = t;
             hit.u = u;
@@ -358,8 +459,20 @@ fn block_closest<I: Intersector>(block: &Triangle4, query: &RayQuery, hit: &mut 
 /// Whether one leaf block blocks one ray before `t_max`, with intersector `I`.
 #[inline(always)]
 fn block_occludes<I: Intersector>(block: &Triangle4, query: &RayQuery, t_max: f32) -> bool {
-    let shared = I::share::<f32x4>(block, query.origin);
-    I::test::<f32x4>(block, &shared, query, t_max).is_some()
+    let ray = basic(query);
+    let shared = I::share::<f32x4>(block, ray.origin);
+    I::test::<f32x4>(block, &shared, &ray, &I::prepare(&ray), t_max).is_some()
+}
+
+/// What the intersectors read of a prepared single ray. (Their per-ray terms are
+/// recomputed per leaf block on this path, which costs only the watertight test.)
+#[inline(always)]
+fn basic(query: &RayQuery) -> BasicRay {
+    BasicRay {
+        origin: query.origin,
+        direction: query.direction,
+        t_min: query.t_min,
+    }
 }
 
 impl SceneAccel<Triangle4> {
@@ -374,9 +487,8 @@ impl SceneAccel<Triangle4> {
         self.occluded_dispatched(ray, counters, block_occludes::<I>)
     }
 
-    /// Closest hits of up to 64 rays with one origin, traced as a packet with
-    /// intersector `I` (ray by ray where a packet cannot be formed; see the module
-    /// notes). `hits` and `counters` have one entry per ray.
+    /// Closest hits of up to 64 rays, traced as a packet with intersector `I` (ray by
+    /// ray in scenes with a top level). `hits` and `counters` have one entry per ray.
     pub fn intersect_packet<I: Intersector, C: Counters>(
         &self,
         buffer: &mut PacketBuffer,
@@ -386,7 +498,7 @@ impl SceneAccel<Triangle4> {
     ) {
         assert!(hits.len() == rays.len() && counters.len() == rays.len());
         let packet = &mut *buffer.0;
-        let (None, Some(bvh), true) = (&self.tlas, self.blas.first(), packet.fill(rays)) else {
+        let (None, Some(bvh), false) = (&self.tlas, self.blas.first(), rays.is_empty()) else {
             for ((ray, hit), counter) in rays.iter().zip(hits.iter_mut()).zip(counters) {
                 *hit = self.intersect_by::<I, C>(ray, counter);
             }
@@ -399,12 +511,12 @@ impl SceneAccel<Triangle4> {
         #[cfg(target_arch = "x86_64")]
         if super::lanes::has_avx() {
             // SAFETY: the CPU has AVX.
-            unsafe { closest_avx::<I, C>(bvh, packet, hits, counters) };
+            unsafe { closest_avx::<I, C>(bvh, packet, rays, hits, counters) };
         } else {
-            closest_in_bvh::<wide::f32x8, I, C>(bvh, packet, hits, counters);
+            closest_portable::<I, C>(bvh, packet, rays, hits, counters);
         }
         #[cfg(not(target_arch = "x86_64"))]
-        closest_in_bvh::<wide::f32x8, I, C>(bvh, packet, hits, counters);
+        closest_portable::<I, C>(bvh, packet, rays, hits, counters);
         for hit in hits.iter_mut() {
             if !hit.is_hit() {
                 hit.t = f32::INFINITY;
@@ -412,8 +524,8 @@ impl SceneAccel<Triangle4> {
         }
     }
 
-    /// Occlusion of up to 64 rays with one origin (shadow rays from one hit point),
-    /// traced as a packet with intersector `I`.
+    /// Occlusion of up to 64 rays (shadow rays from one hit point, say), traced as a
+    /// packet with intersector `I`.
     pub fn occluded_packet<I: Intersector, C: Counters>(
         &self,
         buffer: &mut PacketBuffer,
@@ -423,7 +535,7 @@ impl SceneAccel<Triangle4> {
     ) {
         assert!(occluded.len() == rays.len() && counters.len() == rays.len());
         let packet = &mut *buffer.0;
-        let (None, Some(bvh), true) = (&self.tlas, self.blas.first(), packet.fill(rays)) else {
+        let (None, Some(bvh), false) = (&self.tlas, self.blas.first(), rays.is_empty()) else {
             for ((ray, blocked), counter) in rays.iter().zip(occluded.iter_mut()).zip(counters) {
                 *blocked = self.occluded_by::<I, C>(ray, counter);
             }
@@ -433,31 +545,92 @@ impl SceneAccel<Triangle4> {
         #[cfg(target_arch = "x86_64")]
         if super::lanes::has_avx() {
             // SAFETY: the CPU has AVX.
-            unsafe { occluded_avx::<I, C>(bvh, packet, occluded, counters) };
+            unsafe { occluded_avx::<I, C>(bvh, packet, rays, occluded, counters) };
             return;
         }
-        occluded_in_bvh::<wide::f32x8, I, C>(bvh, packet, occluded, counters);
+        occluded_portable::<I, C>(bvh, packet, rays, occluded, counters);
     }
 }
 
+/// Fill `packet` with `rays` and trace closest hits with 8 lanes `L`, in the general
+/// form when origins differ or direction signs are mixed.
+#[inline(always)]
+fn closest_with<L: Lanes, I: Intersector, C: Counters>(
+    bvh: &Bvh<Triangle4>,
+    packet: &mut Packet,
+    rays: &[Ray],
+    hits: &mut [Hit],
+    counters: &mut [C],
+) {
+    packet.fill::<L>(rays);
+    if packet.mixed_signs || !packet.shared_origin {
+        closest_in_bvh::<L, I, C, true>(bvh, packet, hits, counters)
+    } else {
+        closest_in_bvh::<L, I, C, false>(bvh, packet, hits, counters)
+    }
+}
+
+/// Fill `packet` with `rays` and trace occlusion with 8 lanes `L`.
+#[inline(always)]
+fn occluded_with<L: Lanes, I: Intersector, C: Counters>(
+    bvh: &Bvh<Triangle4>,
+    packet: &mut Packet,
+    rays: &[Ray],
+    occluded: &mut [bool],
+    counters: &mut [C],
+) {
+    packet.fill::<L>(rays);
+    if packet.mixed_signs || !packet.shared_origin {
+        occluded_in_bvh::<L, I, C, true>(bvh, packet, occluded, counters)
+    } else {
+        occluded_in_bvh::<L, I, C, false>(bvh, packet, occluded, counters)
+    }
+}
+
+/// [`closest_with`] on `wide`'s portable 8 lanes.
+fn closest_portable<I: Intersector, C: Counters>(
+    bvh: &Bvh<Triangle4>,
+    packet: &mut Packet,
+    rays: &[Ray],
+    hits: &mut [Hit],
+    counters: &mut [C],
+) {
+    closest_with::<wide::f32x8, I, C>(bvh, packet, rays, hits, counters)
+}
+
+/// [`occluded_with`] on `wide`'s portable 8 lanes.
+fn occluded_portable<I: Intersector, C: Counters>(
+    bvh: &Bvh<Triangle4>,
+    packet: &mut Packet,
+    rays: &[Ray],
+    occluded: &mut [bool],
+    counters: &mut [C],
+) {
+    occluded_with::<wide::f32x8, I, C>(bvh, packet, rays, occluded, counters)
+}
+
+/// [`closest_with`] on AVX lanes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 unsafe fn closest_avx<I: Intersector, C: Counters>(
     bvh: &Bvh<Triangle4>,
     packet: &mut Packet,
+    rays: &[Ray],
     hits: &mut [Hit],
     counters: &mut [C],
 ) {
-    closest_in_bvh::<super::lanes::Avx8, I, C>(bvh, packet, hits, counters)
+    closest_with::<super::lanes::Avx8, I, C>(bvh, packet, rays, hits, counters)
 }
 
+/// [`occluded_with`] on AVX lanes.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 unsafe fn occluded_avx<I: Intersector, C: Counters>(
     bvh: &Bvh<Triangle4>,
     packet: &mut Packet,
+    rays: &[Ray],
     occluded: &mut [bool],
     counters: &mut [C],
 ) {
-    occluded_in_bvh::<super::lanes::Avx8, I, C>(bvh, packet, occluded, counters)
+    occluded_with::<super::lanes::Avx8, I, C>(bvh, packet, rays, occluded, counters)
 }

@@ -166,41 +166,49 @@ impl Workload {
         }
     }
 
-    /// Camera rays grouped into packets of `side` × `side` neighbouring pixels (smaller
-    /// at the right and bottom edges when `side` does not divide the image), packets
-    /// in row-major order, rays row-major inside each. Returns the workload and the
-    /// packet boundaries: packet `k` is `rays[starts[k]..starts[k + 1]]`.
+    /// Camera rays grouped into packets of `side` × `side` neighbouring pixels (see
+    /// [`Self::grouped`]).
     pub fn primary_packets(
         camera: &Camera,
         width: usize,
         height: usize,
         side: usize,
     ) -> (Self, Vec<u32>) {
+        Self::primary(camera, width, height).grouped(side)
+    }
+
+    /// The same rays grouped into packets by `side` × `side` blocks of pixels (smaller
+    /// at the right and bottom edges when `side` does not divide the image; pixels
+    /// without a ray leave packets short), blocks row-major, rays row-major inside.
+    /// Returns the reordered workload and the packet boundaries: packet `k` is
+    /// `rays[starts[k]..starts[k + 1]]`.
+    pub fn grouped(&self, side: usize) -> (Self, Vec<u32>) {
         let side = side.max(1);
-        let mut pixels = Vec::with_capacity(width * height);
+        let blocks_across = self.width.div_ceil(side);
+        let block = |pixel: u32| {
+            let (x, y) = (pixel as usize % self.width, pixel as usize / self.width);
+            (y / side) * blocks_across + x / side
+        };
+        let mut order: Vec<u32> = (0..self.rays.len() as u32).collect();
+        order.sort_unstable_by_key(|&i| (block(self.pixels[i as usize]), self.pixels[i as usize]));
         let mut starts = vec![0u32];
-        for by in (0..height).step_by(side) {
-            for bx in (0..width).step_by(side) {
-                for y in by..(by + side).min(height) {
-                    for x in bx..(bx + side).min(width) {
-                        pixels.push((y * width + x) as u32);
-                    }
-                }
-                starts.push(pixels.len() as u32);
+        for k in 1..order.len() {
+            if block(self.pixels[order[k] as usize]) != block(self.pixels[order[k - 1] as usize]) {
+                starts.push(k as u32);
             }
         }
-        let rays = pixels
-            .iter()
-            .map(|&p| camera.ray(p as usize % width, p as usize / width, width, height))
-            .collect();
-        let work = Self {
-            kind: RayKind::Primary,
-            width,
-            height,
-            rays,
-            pixels,
+        starts.push(order.len() as u32);
+        if order.is_empty() {
+            starts.truncate(1);
+        }
+        let grouped = Self {
+            kind: self.kind,
+            width: self.width,
+            height: self.height,
+            rays: order.iter().map(|&i| self.rays[i as usize]).collect(),
+            pixels: order.iter().map(|&i| self.pixels[i as usize]).collect(),
         };
-        (work, starts)
+        (grouped, starts)
     }
 
     /// The workload of `kind` for `scene` seen by the default camera (secondary rays
@@ -376,6 +384,33 @@ pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
     (hits, counters)
 }
 
+/// Occlusion of packets of rays (`starts` as from [`Workload::grouped`]) with packet
+/// traversal and intersector `I`, on the current rayon pool, with per-ray counters.
+pub fn trace_packets_occluded<I: Intersector, C: Counters + Copy>(
+    accel: &SceneAccel,
+    rays: &[Ray],
+    starts: &[u32],
+) -> (Vec<bool>, Vec<C>) {
+    let mut occluded = vec![false; rays.len()];
+    let mut counters = vec![C::default(); rays.len()];
+    packet_items(rays, starts, &mut occluded, &mut counters)
+        .into_par_iter()
+        .for_each_init(PacketBuffer::default, |buffer, (rays, sizes, occluded, counters)| {
+            let mut at = 0;
+            for size in sizes {
+                let range = at..at + size;
+                accel.occluded_packet::<I, C>(
+                    buffer,
+                    &rays[range.clone()],
+                    &mut occluded[range.clone()],
+                    &mut counters[range],
+                );
+                at += size;
+            }
+        });
+    (occluded, counters)
+}
+
 /// Closest hits of `rays` one at a time with intersector `I`, on the current rayon
 /// pool, with per-ray counters (the reference for [`trace_packets_closest`]).
 pub fn trace_closest_by<I: Intersector, C: Counters + Copy>(
@@ -387,9 +422,9 @@ pub fn trace_closest_by<I: Intersector, C: Counters + Copy>(
     })
 }
 
-/// Trace primary packets (`starts` as from [`Workload::primary_packets`]) `runs` times
+/// Trace `workload` in packets (`starts` as from [`Workload::grouped`]) `runs` times
 /// with counters off (timed) and once with counters on, with packet traversal and
-/// intersector `I`.
+/// intersector `I` (any hit for shadow rays, closest hit otherwise).
 pub fn measure_packets<I: Intersector>(
     accel: &SceneAccel,
     workload: &Workload,
@@ -397,6 +432,15 @@ pub fn measure_packets<I: Intersector>(
     runs: usize,
 ) -> TraceRun {
     let rays = &workload.rays;
+    if workload.kind == RayKind::Shadow {
+        return measure_occluded(
+            rays,
+            &workload.pixels,
+            runs,
+            || trace_packets_occluded::<I, NoCounters>(accel, rays, starts).0,
+            || trace_packets_occluded::<I, RayCounters>(accel, rays, starts).1,
+        );
+    }
     measure_closest(
         rays,
         &workload.pixels,
@@ -410,6 +454,15 @@ pub fn measure_packets<I: Intersector>(
 /// with counters off (timed) and once with counters on.
 pub fn measure_by<I: Intersector>(accel: &SceneAccel, workload: &Workload, runs: usize) -> TraceRun {
     let rays = &workload.rays;
+    if workload.kind == RayKind::Shadow {
+        return measure_occluded(
+            rays,
+            &workload.pixels,
+            runs,
+            || trace_each(rays, false, |r, c: &mut NoCounters| accel.occluded_by::<I, _>(r, c)).0,
+            || trace_each(rays, false, |r, c: &mut RayCounters| accel.occluded_by::<I, _>(r, c)).1,
+        );
+    }
     measure_closest(
         rays,
         &workload.pixels,
@@ -436,6 +489,26 @@ fn measure_closest(
     }
     let found = hits.iter().filter(|h| h.is_hit()).count();
     summarize(rays, all_seconds, found, hit_checksum(&hits, pixels), &counted())
+}
+
+/// Time `timed` (occlusion) `runs` times, then count once with `counted`.
+fn measure_occluded(
+    rays: &[Ray],
+    pixels: &[u32],
+    runs: usize,
+    timed: impl Fn() -> Vec<bool>,
+    counted: impl Fn() -> Vec<RayCounters>,
+) -> TraceRun {
+    let mut all_seconds = Vec::with_capacity(runs);
+    let mut occluded = Vec::new();
+    for _ in 0..runs.max(1) {
+        let start = std::time::Instant::now();
+        occluded = timed();
+        all_seconds.push(start.elapsed().as_secs_f64());
+    }
+    let blocked = occluded.iter().filter(|&&o| o).count();
+    let checksum = occlusion_checksum(&occluded, pixels);
+    summarize(rays, all_seconds, blocked, checksum, &counted())
 }
 
 /// A [`TraceRun`] from timings, the hit count and checksum, and per-ray counters.
@@ -538,35 +611,22 @@ pub fn median(values: &[f64]) -> f64 {
 /// on the current rayon pool.
 pub fn measure(tracer: &impl Tracer, workload: &Workload, runs: usize) -> TraceRun {
     let rays = &workload.rays;
-    let shadow = workload.kind == RayKind::Shadow;
-    let mut all_seconds = Vec::with_capacity(runs);
-    let (mut occluded, mut found) = (Vec::new(), Vec::new());
-    for _ in 0..runs.max(1) {
-        let start = std::time::Instant::now();
-        if shadow {
-            occluded = trace_occluded::<NoCounters>(tracer, rays).0;
-        } else {
-            found = trace_closest::<NoCounters>(tracer, rays).0;
-        }
-        all_seconds.push(start.elapsed().as_secs_f64());
+    if workload.kind == RayKind::Shadow {
+        return measure_occluded(
+            rays,
+            &workload.pixels,
+            runs,
+            || trace_occluded::<NoCounters>(tracer, rays).0,
+            || trace_occluded::<RayCounters>(tracer, rays).1,
+        );
     }
-    let (checksum, hits) = if shadow {
-        (
-            occlusion_checksum(&occluded, &workload.pixels),
-            occluded.iter().filter(|&&o| o).count(),
-        )
-    } else {
-        (
-            hit_checksum(&found, &workload.pixels),
-            found.iter().filter(|h| h.is_hit()).count(),
-        )
-    };
-    let counters: Vec<RayCounters> = if shadow {
-        trace_occluded::<RayCounters>(tracer, rays).1
-    } else {
-        trace_closest::<RayCounters>(tracer, rays).1
-    };
-    summarize(rays, all_seconds, hits, checksum, &counters)
+    measure_closest(
+        rays,
+        &workload.pixels,
+        runs,
+        || trace_closest::<NoCounters>(tracer, rays).0,
+        || trace_closest::<RayCounters>(tracer, rays).1,
+    )
 }
 
 /// Run `f` on a rayon pool of `threads` threads (0 = all cores).
