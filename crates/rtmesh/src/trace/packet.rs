@@ -119,6 +119,8 @@ impl Packet {
                 self.directions[axis][r] = self.directions[axis][0];
             }
         }
+        // Padding never enters a box and never raises the farthest bound.
+        self.t_max[rays.len()..padded].fill(f32::NEG_INFINITY);
         self.mixed_signs = false;
         for axis in 0..3 {
             let (mut low, mut high) = (L::splat(f32::INFINITY), L::splat(f32::NEG_INFINITY));
@@ -159,6 +161,16 @@ impl Packet {
         }
     }
 
+    /// The largest current `t_max` of the packet's rays: nothing farther matters.
+    #[inline(always)]
+    fn farthest<L: Lanes>(&self) -> f32 {
+        let mut farthest = L::splat(f32::NEG_INFINITY);
+        for base in (0..self.len).step_by(8) {
+            farthest = farthest.max(L::load(&self.t_max[base..]));
+        }
+        farthest.to_array().into_iter().fold(f32::NEG_INFINITY, f32::max)
+    }
+
     /// The mask of all rays.
     fn all(&self) -> u64 {
         if self.len == 64 {
@@ -175,9 +187,13 @@ impl Packet {
     /// signs mixed) both planes and the origin range enter the interval product.
     /// Rounding is monotone, so the bounds hold for every ray's own float test.
     #[inline(always)]
-    fn frustum<L: Lanes, const GENERAL: bool>(&self, node: &BvhNode) -> ([f32; 8], u32) {
+    fn frustum<L: Lanes, const GENERAL: bool>(
+        &self,
+        node: &BvhNode,
+        farthest: f32,
+    ) -> ([f32; 8], u32) {
         let mut near = L::splat(self.lowest_t_min);
-        let mut far = L::splat(f32::INFINITY);
+        let mut far = L::splat(farthest);
         for axis in 0..3 {
             let (low, high) = self.inverse_range[axis];
             let (far_low, far_high) = self.inverse_far_range[axis];
@@ -289,15 +305,16 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
 ) {
     let per_ray: [I::PerRay; MAX_PACKET_RAYS] =
         std::array::from_fn(|r| I::prepare(&packet.rays[r]));
-    let mut stack = Stack::<(u32, u64)>::new();
+    let mut stack = Stack::<(u32, u64, f32)>::new();
     let mut current = (bvh.root, packet.all());
+    let mut farthest = packet.farthest::<L>();
     loop {
         let (reference, active) = current;
         match Child::decode(reference) {
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_frustum(node, active, counters);
-                let (near, mut candidates) = packet.frustum::<L, GENERAL>(node);
+                let (near, mut candidates) = packet.frustum::<L, GENERAL>(node, farthest);
                 // Entered children sorted by frustum entry distance, nearest last.
                 let mut entered = [(0u32, 0u64, 0.0f32); WIDTH];
                 let mut n = 0;
@@ -323,14 +340,15 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
                     n += 1;
                 }
                 if n > 0 {
-                    for &(child, rays, _) in &entered[..n - 1] {
-                        stack.push((child, rays));
+                    for &entry in &entered[..n - 1] {
+                        stack.push(entry);
                     }
                     current = (entered[n - 1].0, entered[n - 1].1);
                     continue;
                 }
             }
             Child::Leaf { first, count } => {
+                let mut found_any = false;
                 for block in &bvh.primitives[first as usize..(first + count) as usize] {
                     let mut shared = I::share::<f32x4>(block, packet.origin);
                     for r in bits(active) {
@@ -352,15 +370,25 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
                                 geometry: 0,
                             };
                             packet.t_max[r] = t;
+                            found_any = true;
                         }
                     }
+                }
+                if found_any {
+                    farthest = packet.farthest::<L>();
                 }
             }
             Child::Empty => {}
         }
-        match stack.pop() {
-            Some(next) => current = next,
-            None => return,
+        // Pop the next subtree some ray may still find a closer hit in.
+        loop {
+            let Some((reference, rays, near)) = stack.pop() else {
+                return;
+            };
+            if near <= farthest {
+                current = (reference, rays);
+                break;
+            }
         }
     }
 }
@@ -385,7 +413,7 @@ fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_frustum(node, active, counters);
-                let (_, mut candidates) = packet.frustum::<L, GENERAL>(node);
+                let (_, mut candidates) = packet.frustum::<L, GENERAL>(node, f32::INFINITY);
                 let mut next = None;
                 while candidates != 0 {
                     let lane = candidates.trailing_zeros() as usize;
