@@ -113,10 +113,12 @@ enum Command {
         pair_method: PairMethod,
         /// Ray packets: auto, none, 2x2, 4x4 or 8x8 blocks of pixels. A packet's rays
         /// traverse the BVH together: a frustum test per node for the whole packet,
-        /// then the exact test per ray, and at camera packets (one origin) the
-        /// intersector's shared terms once per packet. They pay for coherent primary
-        /// rays and stop paying for diffuse bounces (origins and directions scattered),
-        /// so auto picks 8x8 for primary rays and single rays otherwise.
+        /// then the exact test per ray, and for camera packets (one origin) the
+        /// intersector's shared terms once per packet. They pay for coherent rays
+        /// (primary; shadow rays converging on one light) and stop paying for diffuse
+        /// bounces (origins and directions scattered), so auto picks 8x8 for primary
+        /// and shadow rays and single rays for diffuse ones (see `rtmesh bench
+        /// packets`).
         #[arg(long, default_value = "auto")]
         packet: String,
         /// Ray-triangle test in the leaves: moller, moller-pre, moller-packet,
@@ -349,7 +351,9 @@ fn parse_packet(text: &str) -> Result<usize, String> {
         "2x2" => Ok(2),
         "4x4" => Ok(4),
         "8x8" => Ok(8),
-        _ => Err(format!("bad packet '{text}': expected 1x1, 2x2, 4x4 or 8x8")),
+        _ => Err(format!(
+            "bad packet '{text}': expected 1x1, 2x2, 4x4 or 8x8"
+        )),
     }
 }
 
@@ -513,7 +517,7 @@ fn run(cli: Cli) -> Result<()> {
             json,
         } => {
             let side = match packet.as_str() {
-                "auto" if rays == RayKind::Primary && leaf == "tri" => 8,
+                "auto" if rays != RayKind::Diffuse && leaf == "tri" => 8,
                 "auto" | "none" => 1,
                 shape => parse_packet(shape).map_err(anyhow::Error::msg)?,
             };
@@ -1096,7 +1100,15 @@ fn bench_intersect(
     if !json {
         println!(
             "{:<22} {:>9} {:<14} {:<6} {:>9} {:>9} {:>10} {:>8} {:>8}",
-            "mesh", "triangles", "intersector", "simd", "seconds", "Mrays/s", "Mtests/s", "speedup", "same"
+            "mesh",
+            "triangles",
+            "intersector",
+            "simd",
+            "seconds",
+            "Mrays/s",
+            "Mtests/s",
+            "speedup",
+            "same"
         );
     }
     for mesh in meshes {
@@ -1121,7 +1133,8 @@ fn bench_intersect(
         let triangles = flat.triangle_count();
         for &kind in &kinds {
             for simd in Simd::available() {
-                let (seconds, hits) = if kind == IntersectorKind::MollerPre && simd == Simd::Scalar {
+                let (seconds, hits) = if kind == IntersectorKind::MollerPre && simd == Simd::Scalar
+                {
                     (base_seconds, base_hits.clone())
                 } else {
                     measure_without_bvh(kind, simd, &soa, &work.rays, packet, runs)
@@ -1170,7 +1183,15 @@ fn bench_packets(
     if !json {
         println!(
             "{:<22} {:<8} {:<22} {:>9} {:>8} {:>8} {:>9} {:>8} {:>5}",
-            "mesh", "workload", "traversal", "Mrays/s", "box/ray", "tri/ray", "seconds", "speedup", "same"
+            "mesh",
+            "workload",
+            "traversal",
+            "Mrays/s",
+            "box/ray",
+            "tri/ray",
+            "seconds",
+            "speedup",
+            "same"
         );
     }
     for mesh in meshes {

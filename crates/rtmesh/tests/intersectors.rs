@@ -15,8 +15,9 @@
 use glam::Vec3;
 use rtmesh::random::SplitMix64;
 use rtmesh::trace::intersect::{
-    closest_without_bvh, closest_without_bvh_by_kind, intersect_triangle_by_kind, reference_f64, Intersector,
-    IntersectorKind, Moller, MollerPacket, MollerPre, Pluecker, Simd, TriangleSoa, Watertight,
+    closest_without_bvh, closest_without_bvh_by_kind, intersect_triangle_by_kind, reference_f64,
+    Intersector, IntersectorKind, Moller, MollerPacket, MollerPre, Pluecker, Simd, TriangleSoa,
+    Watertight,
 };
 use rtmesh::trace::Hit;
 use rtmesh::{Ray, TriMesh};
@@ -83,12 +84,16 @@ fn every_intersector_agrees_with_double_precision_on_random_pairs() {
                 .map(|k| (corners[(k + 1) % 3] - corners[k]).length_squared())
                 .fold(0.0f32, f32::max);
             let quality = normal.length() / longest;
-            let cosine = normal.normalize_or_zero().dot(ray.direction.normalize_or_zero()).abs();
+            let cosine = normal
+                .normalize_or_zero()
+                .dot(ray.direction.normalize_or_zero())
+                .abs();
             // Condition number of the barycentrics: grows as the ray grazes the plane
             // and as the triangle thins.
             let condition = 1.0 / (cosine as f64 * quality as f64);
             let reference = reference_f64(ray, corners);
-            let inside = reference.filter(|&(t, u, v)| u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0);
+            let inside =
+                reference.filter(|&(t, u, v)| u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0);
             let edge = reference.map_or(f64::INFINITY, |(_, u, v)| {
                 u.abs().min(v.abs()).min((1.0 - u - v).abs())
             });
@@ -111,9 +116,18 @@ fn every_intersector_agrees_with_double_precision_on_random_pairs() {
                 }
             }
         }
-        assert!(worst_uv <= tolerance, "{kind}: |Δu|, |Δv| up to {worst_uv} κ");
-        assert!(worst_t <= tolerance, "{kind}: |Δt| up to {worst_t} κ (1 + |t|)");
-        assert!(hits > pairs / 4 && misses > pairs / 4, "{kind}: {hits} hits, {misses} misses");
+        assert!(
+            worst_uv <= tolerance,
+            "{kind}: |Δu|, |Δv| up to {worst_uv} κ"
+        );
+        assert!(
+            worst_t <= tolerance,
+            "{kind}: |Δt| up to {worst_t} κ (1 + |t|)"
+        );
+        assert!(
+            hits > pairs / 4 && misses > pairs / 4,
+            "{kind}: {hits} hits, {misses} misses"
+        );
         assert!(
             edge_disagreements * 1000 < pairs,
             "{kind}: {edge_disagreements} edge disagreements"
@@ -137,7 +151,12 @@ fn packets_over(mesh: &TriMesh, side: usize) -> Vec<Ray> {
     rays
 }
 
-fn trace_all<I: Intersector>(simd: Simd, soa: &TriangleSoa, rays: &[Ray], packet: usize) -> Vec<Hit> {
+fn trace_all<I: Intersector>(
+    simd: Simd,
+    soa: &TriangleSoa,
+    rays: &[Ray],
+    packet: usize,
+) -> Vec<Hit> {
     let mut hits = vec![Hit::MISS; rays.len()];
     closest_without_bvh::<I>(simd, soa, rays, &mut hits, packet);
     hits
@@ -183,7 +202,10 @@ fn leaks(kind: IntersectorKind, mesh: &TriMesh, inside: Vec3, jitter: bool) -> (
     let mut targets = mesh.positions.clone();
     for t in &mesh.triangles {
         for k in 0..3 {
-            let (a, b) = (mesh.positions[t[k] as usize], mesh.positions[t[(k + 1) % 3] as usize]);
+            let (a, b) = (
+                mesh.positions[t[k] as usize],
+                mesh.positions[t[(k + 1) % 3] as usize],
+            );
             targets.extend([(a + b) * 0.5, a * 0.75 + b * 0.25, a * 0.25 + b * 0.75]);
         }
     }
@@ -214,7 +236,11 @@ fn watertight_never_lets_a_ray_through_an_edge_or_vertex() {
     let blob = rtmesh::scenes::scan_blob(4_000, 9);
     let blob_centre = rtmesh::Aabb::from_points(&blob.positions).center();
     let mut leaked_elsewhere = 0;
-    for (mesh, inside) in [(&cube, Vec3::splat(2.0)), (&sphere, Vec3::ZERO), (&blob, blob_centre)] {
+    for (mesh, inside) in [
+        (&cube, Vec3::splat(2.0)),
+        (&sphere, Vec3::ZERO),
+        (&blob, blob_centre),
+    ] {
         for jitter in [false, true] {
             let (leaked, rays) = leaks(IntersectorKind::Watertight, mesh, inside, jitter);
             assert!(rays > 100);
@@ -249,7 +275,10 @@ fn awkward_inputs_miss_and_never_panic() {
             Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::ZERO),
             Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::NAN),
             Ray::new(Vec3::NAN, -Vec3::Z),
-            Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::new(f32::INFINITY, 0.0, -1.0)),
+            Ray::new(
+                Vec3::new(0.2, 0.2, 1.0),
+                Vec3::new(f32::INFINITY, 0.0, -1.0),
+            ),
         ];
         for ray in &awkward {
             assert!(!single(kind, triangle, ray).is_some(), "{kind}: {ray:?}");

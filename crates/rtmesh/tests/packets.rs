@@ -7,7 +7,9 @@
 use glam::Vec3;
 use rtmesh::bvh::BuildSettings;
 use rtmesh::random::SplitMix64;
-use rtmesh::trace::intersect::{Intersector, Moller, MollerPacket, MollerPre, Pluecker, Watertight};
+use rtmesh::trace::intersect::{
+    Intersector, Moller, MollerPacket, MollerPre, Pluecker, Watertight,
+};
 use rtmesh::trace::packet::PacketBuffer;
 use rtmesh::trace::workload::{trace_closest_by, trace_packets_closest};
 use rtmesh::trace::{Camera, NoCounters, RayCounters, SceneAccel, Workload};
@@ -15,9 +17,15 @@ use rtmesh::{Ray, Scene};
 
 fn scenes() -> Vec<(&'static str, Scene)> {
     vec![
-        ("blob", Scene::from_mesh(rtmesh::scenes::scan_blob(20_000, 3))),
+        (
+            "blob",
+            Scene::from_mesh(rtmesh::scenes::scan_blob(20_000, 3)),
+        ),
         ("grid", Scene::from_mesh(rtmesh::scenes::rotated_grid(40))),
-        ("cylinder", Scene::from_mesh(rtmesh::scenes::fan_cylinder(64))),
+        (
+            "cylinder",
+            Scene::from_mesh(rtmesh::scenes::fan_cylinder(64)),
+        ),
         ("room (two levels: ray by ray)", rtmesh::scenes::room()),
     ]
 }
@@ -45,11 +53,17 @@ fn packets_match_single_rays<I: Intersector>() {
                     trace_closest_by::<I, RayCounters>(&accel, &work.rays);
                 let (packed, packed_counts) =
                     trace_packets_closest::<I, RayCounters>(&accel, &work.rays, &starts);
-                let uncounted = trace_packets_closest::<I, NoCounters>(&accel, &work.rays, &starts).0;
+                let uncounted =
+                    trace_packets_closest::<I, NoCounters>(&accel, &work.rays, &starts).0;
                 assert_eq!(packed, uncounted, "{name}: counters change results");
                 let mut ties = 0;
                 for (i, (a, b)) in single.iter().zip(&packed).enumerate() {
-                    assert_eq!(a.t.to_bits(), b.t.to_bits(), "{name} {}x{side} ray {i}: {a:?} {b:?}", side);
+                    assert_eq!(
+                        a.t.to_bits(),
+                        b.t.to_bits(),
+                        "{name} {}x{side} ray {i}: {a:?} {b:?}",
+                        side
+                    );
                     if a.triangle == b.triangle {
                         assert_eq!(a, b, "{name} {side}x{side} ray {i}");
                     } else {
@@ -126,7 +140,12 @@ fn shadow_packets_match_single_rays() {
                 .collect();
             let mut packed = vec![false; rays.len()];
             let mut counters = vec![NoCounters; rays.len()];
-            accel.occluded_packet::<MollerPacket, _>(&mut buffer, &rays, &mut packed, &mut counters);
+            accel.occluded_packet::<MollerPacket, _>(
+                &mut buffer,
+                &rays,
+                &mut packed,
+                &mut counters,
+            );
             for (ray, &blocked) in rays.iter().zip(&packed) {
                 let alone = accel.occluded_by::<MollerPacket, _>(ray, &mut NoCounters);
                 assert_eq!(alone, blocked, "{name}: {ray:?}");

@@ -296,12 +296,9 @@ impl<L: LeafBlock> SceneAccel<L> {
     ) -> bool {
         let query = RayQuery::new(ray);
         match &self.tlas {
-            None => self
-                .blas
-                .first()
-                .is_some_and(|bvh| {
-                    occluded_blas::<T, _, _>(bvh, &query, ray.t_max, counters, leaf)
-                }),
+            None => self.blas.first().is_some_and(|bvh| {
+                occluded_blas::<T, _, _>(bvh, &query, ray.t_max, counters, leaf)
+            }),
             Some(tlas) => any_hit::<T, _, _>(
                 tlas,
                 &query,

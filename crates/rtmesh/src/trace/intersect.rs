@@ -167,7 +167,12 @@ impl<L: Lanes> LaneHits<L> {
             }
             mask &= mask - 1;
         }
-        Some((best, t[best], self.u.to_array()[best], self.v.to_array()[best]))
+        Some((
+            best,
+            t[best],
+            self.u.to_array()[best],
+            self.v.to_array()[best],
+        ))
     }
 }
 
@@ -246,9 +251,7 @@ fn accept_scaled<L: Lanes>(
     ray: &BasicRay,
     t_max: f32,
 ) -> Option<LaneHits<L>> {
-    let mask = mask
-        & L::lt(L::splat(ray.t_min) * scale, t)
-        & L::lt(t, L::splat(t_max) * scale);
+    let mask = mask & L::lt(L::splat(ray.t_min) * scale, t) & L::lt(t, L::splat(t_max) * scale);
     if !L::any(mask) {
         return None;
     }
@@ -608,7 +611,10 @@ impl TriangleLanes<f32> for OneTriangle {
 
 /// `(t, u, v)` where `ray` hits the triangle `corners` inside `(t_min, t_max)` by the
 /// scalar form of `I`.
-pub fn intersect_triangle<I: Intersector>(corners: [Vec3; 3], ray: &Ray) -> Option<(f32, f32, f32)> {
+pub fn intersect_triangle<I: Intersector>(
+    corners: [Vec3; 3],
+    ray: &Ray,
+) -> Option<(f32, f32, f32)> {
     let (e1, e2) = (corners[1] - corners[0], corners[2] - corners[0]);
     let triangle = OneTriangle {
         corners,

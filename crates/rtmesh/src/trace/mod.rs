@@ -177,7 +177,8 @@ pub struct RayQuery {
 }
 
 /// 1 + 2γ₃ with γ₃ = 3ε / (1 − 3ε), ε = 2⁻²⁴.
-pub(crate) const ROBUST_FAR_SCALE: f32 = 1.0 + 2.0 * (1.5 * f32::EPSILON) / (1.0 - 1.5 * f32::EPSILON);
+pub(crate) const ROBUST_FAR_SCALE: f32 =
+    1.0 + 2.0 * (1.5 * f32::EPSILON) / (1.0 - 1.5 * f32::EPSILON);
 
 /// `1 / d`, with `|d|` below 1e-18 replaced by ±1e-18 (the sign of `d` kept).
 #[inline(always)]

@@ -128,8 +128,7 @@ impl Packet {
             let (mut o_low, mut o_high) = (low, high);
             for base in (0..padded).step_by(8) {
                 let d = L::load(&self.directions[axis][base..]);
-                self.inverse[axis][base..base + 8]
-                    .copy_from_slice(&(L::splat(1.0) / d).to_array());
+                self.inverse[axis][base..base + 8].copy_from_slice(&(L::splat(1.0) / d).to_array());
                 let mut tiny = L::bitmask(L::lt(d.abs(), L::splat(1e-18)));
                 while tiny != 0 {
                     let r = base + tiny.trailing_zeros() as usize;
@@ -168,7 +167,10 @@ impl Packet {
         for base in (0..self.len).step_by(8) {
             farthest = farthest.max(L::load(&self.t_max[base..]));
         }
-        farthest.to_array().into_iter().fold(f32::NEG_INFINITY, f32::max)
+        farthest
+            .to_array()
+            .into_iter()
+            .fold(f32::NEG_INFINITY, f32::max)
     }
 
     /// The mask of all rays.

@@ -368,19 +368,22 @@ pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
     let mut counters = vec![C::default(); rays.len()];
     packet_items(rays, starts, &mut hits, &mut counters)
         .into_par_iter()
-        .for_each_init(PacketBuffer::default, |buffer, (rays, sizes, hits, counters)| {
-            let mut at = 0;
-            for size in sizes {
-                let range = at..at + size;
-                accel.intersect_packet::<I, C>(
-                    buffer,
-                    &rays[range.clone()],
-                    &mut hits[range.clone()],
-                    &mut counters[range],
-                );
-                at += size;
-            }
-        });
+        .for_each_init(
+            PacketBuffer::default,
+            |buffer, (rays, sizes, hits, counters)| {
+                let mut at = 0;
+                for size in sizes {
+                    let range = at..at + size;
+                    accel.intersect_packet::<I, C>(
+                        buffer,
+                        &rays[range.clone()],
+                        &mut hits[range.clone()],
+                        &mut counters[range],
+                    );
+                    at += size;
+                }
+            },
+        );
     (hits, counters)
 }
 
@@ -395,19 +398,22 @@ pub fn trace_packets_occluded<I: Intersector, C: Counters + Copy>(
     let mut counters = vec![C::default(); rays.len()];
     packet_items(rays, starts, &mut occluded, &mut counters)
         .into_par_iter()
-        .for_each_init(PacketBuffer::default, |buffer, (rays, sizes, occluded, counters)| {
-            let mut at = 0;
-            for size in sizes {
-                let range = at..at + size;
-                accel.occluded_packet::<I, C>(
-                    buffer,
-                    &rays[range.clone()],
-                    &mut occluded[range.clone()],
-                    &mut counters[range],
-                );
-                at += size;
-            }
-        });
+        .for_each_init(
+            PacketBuffer::default,
+            |buffer, (rays, sizes, occluded, counters)| {
+                let mut at = 0;
+                for size in sizes {
+                    let range = at..at + size;
+                    accel.occluded_packet::<I, C>(
+                        buffer,
+                        &rays[range.clone()],
+                        &mut occluded[range.clone()],
+                        &mut counters[range],
+                    );
+                    at += size;
+                }
+            },
+        );
     (occluded, counters)
 }
 
@@ -452,15 +458,29 @@ pub fn measure_packets<I: Intersector>(
 
 /// Trace `workload` one ray at a time with intersector `I` in the leaves, `runs` times
 /// with counters off (timed) and once with counters on.
-pub fn measure_by<I: Intersector>(accel: &SceneAccel, workload: &Workload, runs: usize) -> TraceRun {
+pub fn measure_by<I: Intersector>(
+    accel: &SceneAccel,
+    workload: &Workload,
+    runs: usize,
+) -> TraceRun {
     let rays = &workload.rays;
     if workload.kind == RayKind::Shadow {
         return measure_occluded(
             rays,
             &workload.pixels,
             runs,
-            || trace_each(rays, false, |r, c: &mut NoCounters| accel.occluded_by::<I, _>(r, c)).0,
-            || trace_each(rays, false, |r, c: &mut RayCounters| accel.occluded_by::<I, _>(r, c)).1,
+            || {
+                trace_each(rays, false, |r, c: &mut NoCounters| {
+                    accel.occluded_by::<I, _>(r, c)
+                })
+                .0
+            },
+            || {
+                trace_each(rays, false, |r, c: &mut RayCounters| {
+                    accel.occluded_by::<I, _>(r, c)
+                })
+                .1
+            },
         );
     }
     measure_closest(
@@ -488,7 +508,13 @@ fn measure_closest(
         all_seconds.push(start.elapsed().as_secs_f64());
     }
     let found = hits.iter().filter(|h| h.is_hit()).count();
-    summarize(rays, all_seconds, found, hit_checksum(&hits, pixels), &counted())
+    summarize(
+        rays,
+        all_seconds,
+        found,
+        hit_checksum(&hits, pixels),
+        &counted(),
+    )
 }
 
 /// Time `timed` (occlusion) `runs` times, then count once with `counted`.
