@@ -23,3 +23,17 @@ pub mod trace;
 
 pub use geom::{Aabb, Ray};
 pub use mesh::{Instance, Material, Scene, TriMesh};
+
+/// Hint the CPU to fetch `value`'s cache line (no effect where unsupported).
+#[inline(always)]
+pub(crate) fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: prefetching is a hint; it never faults, whatever the address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+            (value as *const T).cast(),
+        )
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
+}

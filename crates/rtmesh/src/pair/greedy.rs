@@ -173,7 +173,7 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     const PREFETCH_DISTANCE: usize = 16;
     for (i, &record) in records.iter().enumerate().rev() {
         if let Some(j) = i.checked_sub(PREFETCH_DISTANCE) {
-            prefetch(&all_couples[records[j] as u32 as usize]);
+            crate::prefetch(&all_couples[records[j] as u32 as usize]);
         }
         let [a, b] = all_couples[record as u32 as usize];
         if !is_taken(&taken, a) && !is_taken(&taken, b) {
@@ -186,16 +186,3 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     Pairing::from_partners(&partner)
 }
 
-/// Hint the CPU to fetch `value`'s cache line (no effect where unsupported).
-#[inline(always)]
-fn prefetch<T>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: prefetching is a hint; it never faults, whatever the address.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            (value as *const T).cast(),
-        )
-    };
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
-}

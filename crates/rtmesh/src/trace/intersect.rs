@@ -237,10 +237,12 @@ fn accept_t<L: Lanes>(
     L::any(mask).then_some(LaneHits { mask, t, u, v })
 }
 
-/// The last range test on numerators scaled by `scale` = |denominator| (the division
-/// is deferred until some lane has passed every test): `t_min·scale < t < t_max·scale`,
-/// then `t`, `u`, `v` divided by `scale`. A zero or NaN scale fails (the bounds become
-/// 0 or NaN), so degenerate triangles and NaN rays miss.
+/// The last range test for numerators scaled by `scale` = |denominator| (the division
+/// is deferred until some lane has passed every other test): `t_min·scale < t`, then
+/// `t`, `u`, `v` divided by `scale` and `t < t_max` on the quotient, so that whether a
+/// lane beats the closest hit so far is decided on the same value whatever the lane
+/// width (a scaled comparison against `t_max` would round differently per lane). A
+/// zero or NaN scale fails, so degenerate triangles and NaN rays miss.
 #[inline(always)]
 fn accept_scaled<L: Lanes>(
     mask: L::Mask,
@@ -251,17 +253,12 @@ fn accept_scaled<L: Lanes>(
     ray: &BasicRay,
     t_max: f32,
 ) -> Option<LaneHits<L>> {
-    let mask = mask & L::lt(L::splat(ray.t_min) * scale, t) & L::lt(t, L::splat(t_max) * scale);
+    let mask = mask & L::lt(L::splat(ray.t_min) * scale, t);
     if !L::any(mask) {
         return None;
     }
     let inverse = L::splat(1.0) / scale;
-    Some(LaneHits {
-        mask,
-        t: t * inverse,
-        u: u * inverse,
-        v: v * inverse,
-    })
+    accept_t(mask, t * inverse, u * inverse, v * inverse, ray, t_max)
 }
 
 /// `0 ≤ x ≤ 1` per lane.
