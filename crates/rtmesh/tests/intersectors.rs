@@ -266,7 +266,7 @@ fn awkward_inputs_miss_and_never_panic() {
         for corners in degenerate {
             for direction in [-Vec3::Z, Vec3::new(0.3, -0.1, -1.0), Vec3::Y] {
                 let ray = Ray::new(Vec3::new(0.2, 0.0, 1.0), direction);
-                assert!(!single(kind, corners, &ray).is_some(), "{kind} {corners:?}");
+                assert!(single(kind, corners, &ray).is_none(), "{kind} {corners:?}");
             }
         }
         let awkward = [
@@ -281,9 +281,9 @@ fn awkward_inputs_miss_and_never_panic() {
             ),
         ];
         for ray in &awkward {
-            assert!(!single(kind, triangle, ray).is_some(), "{kind}: {ray:?}");
+            assert!(single(kind, triangle, ray).is_none(), "{kind}: {ray:?}");
         }
         let behind = Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::Z);
-        assert!(!single(kind, triangle, &behind).is_some(), "{kind}");
+        assert!(single(kind, triangle, &behind).is_none(), "{kind}");
     }
 }

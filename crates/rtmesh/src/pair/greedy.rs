@@ -185,4 +185,3 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     }
     Pairing::from_partners(&partner)
 }
-

@@ -39,6 +39,7 @@ use crate::geom::Ray;
 use crate::mesh::TriMesh;
 use glam::Vec3;
 use std::fmt;
+use std::ops::{Add, Sub};
 use std::str::FromStr;
 
 /// The intersector names accepted on the command line.

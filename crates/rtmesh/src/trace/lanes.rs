@@ -424,20 +424,24 @@ impl<L: Lanes> V3<L> {
     pub fn dot(self, rhs: Self) -> L {
         (self.x * rhs.x) + (self.y * rhs.y) + (self.z * rhs.z)
     }
+}
 
-    /// `self + rhs`.
+impl<L: Lanes> Add for V3<L> {
+    type Output = Self;
     #[inline(always)]
-    pub fn add(self, rhs: Self) -> Self {
+    fn add(self, rhs: Self) -> Self {
         Self {
             x: self.x + rhs.x,
             y: self.y + rhs.y,
             z: self.z + rhs.z,
         }
     }
+}
 
-    /// `self − rhs`.
+impl<L: Lanes> Sub for V3<L> {
+    type Output = Self;
     #[inline(always)]
-    pub fn sub(self, rhs: Self) -> Self {
+    fn sub(self, rhs: Self) -> Self {
         Self {
             x: self.x - rhs.x,
             y: self.y - rhs.y,

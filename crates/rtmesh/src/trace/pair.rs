@@ -24,6 +24,7 @@ use crate::geom::Aabb;
 use crate::mesh::TriMesh;
 use crate::pair::{quad, Pairing};
 use glam::Vec3;
+use std::ops::Sub;
 use wide::f32x4;
 
 /// A pair (or a single triangle) as the BVH builder sees it.

@@ -15,6 +15,7 @@ use super::{Counters, Hit, LeafBlock, RayQuery};
 use crate::bvh::Primitive;
 use crate::geom::Aabb;
 use glam::Vec3;
+use std::ops::{Add, Sub};
 use wide::f32x4;
 
 /// A triangle as the tracer stores it: `v0`, `e1 = v1 − v0`, `e2 = v2 − v0` and the

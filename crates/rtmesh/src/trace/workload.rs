@@ -329,6 +329,10 @@ pub fn trace_occluded<C: Counters + Copy>(
     trace_each(rays, false, |ray, counters| tracer.occluded(ray, counters))
 }
 
+/// One parallel work item of packets: its rays, the packet sizes, and the per-ray
+/// outputs and counters.
+type PacketItem<'a, R, C> = (&'a [Ray], Vec<usize>, &'a mut [R], &'a mut [C]);
+
 /// Split `rays` and per-ray outputs into work items of whole packets (`starts` as
 /// from [`Workload::primary_packets`]), about 64 rays each.
 fn packet_items<'a, R, C>(
@@ -336,7 +340,7 @@ fn packet_items<'a, R, C>(
     starts: &[u32],
     mut outcomes: &'a mut [R],
     mut counters: &'a mut [C],
-) -> Vec<(&'a [Ray], Vec<usize>, &'a mut [R], &'a mut [C])> {
+) -> Vec<PacketItem<'a, R, C>> {
     let mut items = Vec::new();
     let mut k = 0;
     while k + 1 < starts.len() {
