@@ -370,6 +370,14 @@ fn parse_size(text: &str) -> Result<(usize, usize), String> {
     }
 }
 
+/// The file name of a mesh argument (the argument itself for builtin:NAME), for tables.
+fn file_name(mesh: &str) -> &str {
+    Path::new(mesh)
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or(mesh)
+}
+
 fn print_json(value: &impl serde::Serialize) -> Result<()> {
     println!("{}", serde_json::to_string_pretty(value)?);
     Ok(())
@@ -849,10 +857,7 @@ fn bench_trace(
     };
     for mesh in meshes {
         let scene = load(mesh)?;
-        let name = Path::new(mesh)
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or(mesh);
+        let name = file_name(mesh);
         if vs.is_empty() {
             bench_own(name, &scene, kinds, thread_counts, size, runs, builds, json)?;
             continue;
@@ -969,11 +974,7 @@ fn bench_pairing(
         for mesh in &mut scene.meshes {
             *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
         }
-        let name = Path::new(mesh_name)
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or(mesh_name)
-            .to_owned();
+        let name = file_name(mesh_name).to_owned();
         let triangles = std::sync::Arc::new(SceneAccel::build(&scene, &BuildSettings::default()));
         let mut rows = vec![{
             let (a, b) = (triangles.clone(), triangles.clone());
@@ -1117,10 +1118,7 @@ fn bench_intersect(
         let soa = TriangleSoa::from_mesh(&flat);
         let camera = rtmesh::trace::Camera::default_for(&scene.bounds(), width, height);
         let (work, _) = Workload::primary_packets(&camera, width, height, side);
-        let name = Path::new(mesh)
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or(mesh);
+        let name = file_name(mesh);
         let packet = side * side;
         let (base_seconds, base_hits) = measure_without_bvh(
             IntersectorKind::MollerPre,
@@ -1196,10 +1194,7 @@ fn bench_packets(
     }
     for mesh in meshes {
         let scene = load(mesh)?;
-        let name = Path::new(mesh)
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or(mesh);
+        let name = file_name(mesh);
         let accel = SceneAccel::build(&scene, &BuildSettings::default());
         for &kind in kinds {
             let work = Workload::generate(kind, &scene, &accel, width, height, 1);

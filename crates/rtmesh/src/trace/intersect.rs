@@ -262,6 +262,32 @@ fn accept_scaled<L: Lanes>(
     accept_t(mask, t * inverse, u * inverse, v * inverse, ray, t_max)
 }
 
+/// The range tests of the deferred-division Möller forms: the `u` numerator, then the
+/// `v` numerator (computed only when some lane passed), against |denominator| with
+/// the denominator's sign folded in, then `t` by [`accept_scaled`].
+#[inline(always)]
+fn scaled_test<L: Lanes>(
+    denominator: L,
+    u: L,
+    v: impl FnOnce() -> L,
+    t: impl FnOnce() -> L,
+    ray: &BasicRay,
+    t_max: f32,
+) -> Option<LaneHits<L>> {
+    let u = u.xor_sign(denominator);
+    let scale = denominator.abs();
+    let mask = L::le(L::splat(0.0), u) & L::le(u, scale);
+    if !L::any(mask) {
+        return None;
+    }
+    let v = v().xor_sign(denominator);
+    let mask = mask & L::le(L::splat(0.0), v) & L::le(u + v, scale);
+    if !L::any(mask) {
+        return None;
+    }
+    accept_scaled(mask, t().xor_sign(denominator), u, v, scale, ray, t_max)
+}
+
 /// `0 ≤ x ≤ 1` per lane.
 #[inline(always)]
 fn unit_range<L: Lanes>(x: L) -> L::Mask {
@@ -335,21 +361,16 @@ impl Intersector for MollerPre {
         let d = V3::splat(ray.direction);
         let n = triangles.normal();
         let denominator = n.dot(d);
-        let s = V3::splat(ray.origin).sub(triangles.v0());
+        let s = V3::splat(ray.origin) - triangles.v0();
         let c = d.cross(s);
-        let u = c.dot(triangles.e2()).xor_sign(denominator);
-        let scale = denominator.abs();
-        let mask = L::le(L::splat(0.0), u) & L::le(u, scale);
-        if !L::any(mask) {
-            return None;
-        }
-        let v = (-c.dot(triangles.e1())).xor_sign(denominator);
-        let mask = mask & L::le(L::splat(0.0), v) & L::le(u + v, scale);
-        if !L::any(mask) {
-            return None;
-        }
-        let t = (-n.dot(s)).xor_sign(denominator);
-        accept_scaled(mask, t, u, v, scale, ray, t_max)
+        scaled_test(
+            denominator,
+            c.dot(triangles.e2()),
+            || -c.dot(triangles.e1()),
+            || -n.dot(s),
+            ray,
+            t_max,
+        )
     }
 }
 
@@ -392,20 +413,14 @@ impl Intersector for MollerPacket {
         t_max: f32,
     ) -> Option<LaneHits<L>> {
         let d = V3::splat(ray.direction);
-        let denominator = terms.normal.dot(d);
-        let u = d.dot(terms.u_axis).xor_sign(denominator);
-        let scale = denominator.abs();
-        let mask = L::le(L::splat(0.0), u) & L::le(u, scale);
-        if !L::any(mask) {
-            return None;
-        }
-        let v = d.dot(terms.v_axis).xor_sign(denominator);
-        let mask = mask & L::le(L::splat(0.0), v) & L::le(u + v, scale);
-        if !L::any(mask) {
-            return None;
-        }
-        let t = terms.minus_n_dot_s.xor_sign(denominator);
-        accept_scaled(mask, t, u, v, scale, ray, t_max)
+        scaled_test(
+            terms.normal.dot(d),
+            d.dot(terms.u_axis),
+            || d.dot(terms.v_axis),
+            || terms.minus_n_dot_s,
+            ray,
+            t_max,
+        )
     }
 }
 

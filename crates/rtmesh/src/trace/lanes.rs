@@ -109,120 +109,72 @@ impl Lanes for f32 {
     }
 }
 
-impl Lanes for f32x4 {
-    type Mask = f32x4;
-    const WIDTH: usize = 4;
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        f32x4::splat(x)
-    }
-    #[inline(always)]
-    fn load(values: &[f32]) -> Self {
-        f32x4::new(values[..4].try_into().expect("4 floats"))
-    }
-    #[inline(always)]
-    fn to_array(self) -> [f32; 8] {
-        let a = f32x4::to_array(self);
-        [a[0], a[1], a[2], a[3], 0.0, 0.0, 0.0, 0.0]
-    }
-    #[inline(always)]
-    fn lt(self, rhs: Self) -> f32x4 {
-        self.simd_lt(rhs)
-    }
-    #[inline(always)]
-    fn le(self, rhs: Self) -> f32x4 {
-        self.simd_le(rhs)
-    }
-    #[inline(always)]
-    fn ne(self, rhs: Self) -> f32x4 {
-        self.simd_ne(rhs)
-    }
-    #[inline(always)]
-    fn is_finite(self) -> f32x4 {
-        f32x4::is_finite(self)
-    }
-    #[inline(always)]
-    fn min(self, rhs: Self) -> Self {
-        self.fast_min(rhs)
-    }
-    #[inline(always)]
-    fn max(self, rhs: Self) -> Self {
-        self.fast_max(rhs)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        f32x4::abs(self)
-    }
-    #[inline(always)]
-    fn xor_sign(self, sign: Self) -> Self {
-        self ^ (sign & f32x4::splat(-0.0))
-    }
-    #[inline(always)]
-    fn any(mask: f32x4) -> bool {
-        mask.any()
-    }
-    #[inline(always)]
-    fn bitmask(mask: f32x4) -> u32 {
-        mask.to_bitmask()
-    }
+/// [`Lanes`] for a `wide` vector type of `$width` floats.
+macro_rules! wide_lanes {
+    ($type:ident, $width:literal) => {
+        impl Lanes for $type {
+            type Mask = $type;
+            const WIDTH: usize = $width;
+            #[inline(always)]
+            fn splat(x: f32) -> Self {
+                $type::splat(x)
+            }
+            #[inline(always)]
+            fn load(values: &[f32]) -> Self {
+                $type::new(values[..$width].try_into().expect("one float per lane"))
+            }
+            #[inline(always)]
+            fn to_array(self) -> [f32; 8] {
+                let mut out = [0.0; 8];
+                out[..$width].copy_from_slice(&$type::to_array(self));
+                out
+            }
+            #[inline(always)]
+            fn lt(self, rhs: Self) -> Self {
+                self.simd_lt(rhs)
+            }
+            #[inline(always)]
+            fn le(self, rhs: Self) -> Self {
+                self.simd_le(rhs)
+            }
+            #[inline(always)]
+            fn ne(self, rhs: Self) -> Self {
+                self.simd_ne(rhs)
+            }
+            #[inline(always)]
+            fn is_finite(self) -> Self {
+                $type::is_finite(self)
+            }
+            #[inline(always)]
+            fn min(self, rhs: Self) -> Self {
+                self.fast_min(rhs)
+            }
+            #[inline(always)]
+            fn max(self, rhs: Self) -> Self {
+                self.fast_max(rhs)
+            }
+            #[inline(always)]
+            fn abs(self) -> Self {
+                $type::abs(self)
+            }
+            #[inline(always)]
+            fn xor_sign(self, sign: Self) -> Self {
+                self ^ (sign & $type::splat(-0.0))
+            }
+            #[inline(always)]
+            fn any(mask: Self) -> bool {
+                mask.any()
+            }
+            #[inline(always)]
+            fn bitmask(mask: Self) -> u32 {
+                mask.to_bitmask()
+            }
+        }
+    };
 }
 
-impl Lanes for f32x8 {
-    type Mask = f32x8;
-    const WIDTH: usize = 8;
-    #[inline(always)]
-    fn splat(x: f32) -> Self {
-        f32x8::splat(x)
-    }
-    #[inline(always)]
-    fn load(values: &[f32]) -> Self {
-        f32x8::new(values[..8].try_into().expect("8 floats"))
-    }
-    #[inline(always)]
-    fn to_array(self) -> [f32; 8] {
-        f32x8::to_array(self)
-    }
-    #[inline(always)]
-    fn lt(self, rhs: Self) -> f32x8 {
-        self.simd_lt(rhs)
-    }
-    #[inline(always)]
-    fn le(self, rhs: Self) -> f32x8 {
-        self.simd_le(rhs)
-    }
-    #[inline(always)]
-    fn ne(self, rhs: Self) -> f32x8 {
-        self.simd_ne(rhs)
-    }
-    #[inline(always)]
-    fn is_finite(self) -> f32x8 {
-        f32x8::is_finite(self)
-    }
-    #[inline(always)]
-    fn min(self, rhs: Self) -> Self {
-        self.fast_min(rhs)
-    }
-    #[inline(always)]
-    fn max(self, rhs: Self) -> Self {
-        self.fast_max(rhs)
-    }
-    #[inline(always)]
-    fn abs(self) -> Self {
-        f32x8::abs(self)
-    }
-    #[inline(always)]
-    fn xor_sign(self, sign: Self) -> Self {
-        self ^ (sign & f32x8::splat(-0.0))
-    }
-    #[inline(always)]
-    fn any(mask: f32x8) -> bool {
-        mask.any()
-    }
-    #[inline(always)]
-    fn bitmask(mask: f32x8) -> u32 {
-        mask.to_bitmask()
-    }
-}
+wide_lanes!(f32x4, 4);
+wide_lanes!(f32x8, 8);
 
 /// Eight floats in one AVX register. Every method runs AVX instructions, so values of
 /// this type must only be made inside functions compiled with

@@ -24,7 +24,7 @@
 
 use super::intersect::{BasicRay, Intersector, MAX_PACKET_RAYS};
 use super::lanes::Lanes;
-use super::traverse::Stack;
+use super::traverse::{insert_nearest_last, Stack};
 use super::triangle::Triangle4;
 use super::{safe_reciprocal, Counters, Hit, RayQuery, SceneAccel, ROBUST_FAR_SCALE};
 use crate::bvh::{Bvh, BvhNode, Child, EMPTY_CHILD, WIDTH};
@@ -333,13 +333,7 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
                         continue;
                     }
                     let entry = (node.children[lane], rays, near[lane]);
-                    let mut j = n;
-                    while j > 0 && entered[j - 1].2 < entry.2 {
-                        entered[j] = entered[j - 1];
-                        j -= 1;
-                    }
-                    entered[j] = entry;
-                    n += 1;
+                    insert_nearest_last(&mut entered, &mut n, entry, |e| e.2);
                 }
                 if n > 0 {
                     for &entry in &entered[..n - 1] {

@@ -137,6 +137,24 @@ unsafe fn avx_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WID
     (distances, mask)
 }
 
+/// Insert `entry` among the first `n` entries of `sorted`, kept in decreasing order of
+/// `distance` (the nearest last, to be visited first), and count it in `n`.
+#[inline(always)]
+pub(crate) fn insert_nearest_last<T: Copy>(
+    sorted: &mut [T; WIDTH],
+    n: &mut usize,
+    entry: T,
+    distance: impl Fn(&T) -> f32,
+) {
+    let mut j = *n;
+    while j > 0 && distance(&sorted[j - 1]) < distance(&entry) {
+        sorted[j] = sorted[j - 1];
+        j -= 1;
+    }
+    sorted[j] = entry;
+    *n += 1;
+}
+
 #[inline(always)]
 fn count_boxes<C: Counters>(node: &BvhNode, counters: &mut C) {
     if C::ENABLED {
@@ -172,14 +190,12 @@ pub fn closest_hit<T: NodeTest, P, C: Counters>(
                     while mask != 0 {
                         let lane = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
-                        let entry = (node.children[lane], near[lane]);
-                        let mut j = n;
-                        while j > 0 && hits[j - 1].1 < entry.1 {
-                            hits[j] = hits[j - 1];
-                            j -= 1;
-                        }
-                        hits[j] = entry;
-                        n += 1;
+                        insert_nearest_last(
+                            &mut hits,
+                            &mut n,
+                            (node.children[lane], near[lane]),
+                            |e| e.1,
+                        );
                     }
                     for &entry in &hits[..n - 1] {
                         stack.push(entry);

@@ -9,7 +9,7 @@
 //! full leaves of four and the tree is a level shallower. Both forms evaluate the very
 //! same IEEE operations in the same order, so their hits are bit-identical.
 
-use super::intersect::TriangleLanes;
+use super::intersect::{LaneHits, TriangleLanes};
 use super::lanes::V3;
 use super::{Counters, Hit, LeafBlock, RayQuery};
 use crate::bvh::Primitive;
@@ -151,10 +151,10 @@ impl Triangle4 {
         }
     }
 
-    /// Möller–Trumbore on all four lanes; returns the mask of lanes hit inside
-    /// `(t_min, t_max)` and their `(t, u, v)`.
+    /// Möller–Trumbore on all four lanes: the lanes hit inside `(t_min, t_max)` and
+    /// their `(t, u, v)`.
     #[inline(always)]
-    fn test(&self, ray: &RayQuery, t_max: f32) -> (u32, [f32; 4], f32x4, f32x4) {
+    fn test(&self, ray: &RayQuery, t_max: f32) -> LaneHits<f32x4> {
         let direction = V3::<f32x4>::splat(ray.direction);
         let e1 = V3::from_rows(&self.e1);
         let e2 = V3::from_rows(&self.e2);
@@ -176,7 +176,12 @@ impl Triangle4 {
             & t.simd_lt(f32x4::splat(t_max))
             & determinant.simd_ne(zero)
             & determinant.is_finite();
-        (inside.to_bitmask(), t.to_array(), u, v)
+        LaneHits {
+            mask: inside,
+            t,
+            u,
+            v,
+        }
     }
 }
 
@@ -184,30 +189,20 @@ impl LeafBlock for Triangle4 {
     /// The closest lane hit before `hit.t`, recorded into `hit`.
     #[inline(always)]
     fn intersect_into(&self, ray: &RayQuery, hit: &mut Hit) -> bool {
-        let (mut mask, t, u, v) = self.test(ray, hit.t);
-        if mask == 0 {
+        let Some((lane, t, u, v)) = self.test(ray, hit.t).nearest() else {
             return false;
-        }
-        let mut best = mask.trailing_zeros() as usize;
-        mask &= mask - 1;
-        while mask != 0 {
-            let lane = mask.trailing_zeros() as usize;
-            if t[lane] < t[best] {
-                best = lane;
-            }
-            mask &= mask - 1;
-        }
-        hit.t = t[best];
-        hit.u = u.to_array()[best];
-        hit.v = v.to_array()[best];
-        hit.triangle = self.ids[best];
+        };
+        hit.t = t;
+        hit.u = u;
+        hit.v = v;
+        hit.triangle = self.ids[lane];
         true
     }
 
     /// Whether any lane is hit inside `(t_min, t_max)`.
     #[inline(always)]
     fn occludes(&self, ray: &RayQuery, t_max: f32) -> bool {
-        self.test(ray, t_max).0 != 0
+        self.test(ray, t_max).mask.any()
     }
 
     #[inline(always)]

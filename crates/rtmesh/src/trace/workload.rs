@@ -360,35 +360,48 @@ fn packet_items<'a, R, C>(
     items
 }
 
-/// Closest hits of packets of rays sharing an origin (`starts` as from
-/// [`Workload::primary_packets`]) with packet traversal and intersector `I`, on the
-/// current rayon pool, with per-ray counters.
-pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
-    accel: &SceneAccel,
+/// Run `trace(buffer, rays, outcomes, counters)` on every packet (`starts` as from
+/// [`Workload::grouped`]) on the current rayon pool, one packet buffer per work item.
+fn trace_packets<R: Copy + Send, C: Counters + Copy>(
     rays: &[Ray],
     starts: &[u32],
-) -> (Vec<Hit>, Vec<C>) {
-    let mut hits = vec![Hit::MISS; rays.len()];
+    nothing: R,
+    trace: impl Fn(&mut PacketBuffer, &[Ray], &mut [R], &mut [C]) + Sync,
+) -> (Vec<R>, Vec<C>) {
+    let mut outcomes = vec![nothing; rays.len()];
     let mut counters = vec![C::default(); rays.len()];
-    packet_items(rays, starts, &mut hits, &mut counters)
+    packet_items(rays, starts, &mut outcomes, &mut counters)
         .into_par_iter()
         .for_each_init(
             PacketBuffer::default,
-            |buffer, (rays, sizes, hits, counters)| {
+            |buffer, (rays, sizes, outcomes, counters)| {
                 let mut at = 0;
                 for size in sizes {
                     let range = at..at + size;
-                    accel.intersect_packet::<I, C>(
+                    trace(
                         buffer,
                         &rays[range.clone()],
-                        &mut hits[range.clone()],
+                        &mut outcomes[range.clone()],
                         &mut counters[range],
                     );
                     at += size;
                 }
             },
         );
-    (hits, counters)
+    (outcomes, counters)
+}
+
+/// Closest hits of packets of rays (`starts` as from [`Workload::grouped`]) with
+/// packet traversal and intersector `I`, on the current rayon pool, with per-ray
+/// counters.
+pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
+    accel: &SceneAccel,
+    rays: &[Ray],
+    starts: &[u32],
+) -> (Vec<Hit>, Vec<C>) {
+    trace_packets(rays, starts, Hit::MISS, |buffer, rays, hits, counters| {
+        accel.intersect_packet::<I, C>(buffer, rays, hits, counters)
+    })
 }
 
 /// Occlusion of packets of rays (`starts` as from [`Workload::grouped`]) with packet
@@ -398,27 +411,9 @@ pub fn trace_packets_occluded<I: Intersector, C: Counters + Copy>(
     rays: &[Ray],
     starts: &[u32],
 ) -> (Vec<bool>, Vec<C>) {
-    let mut occluded = vec![false; rays.len()];
-    let mut counters = vec![C::default(); rays.len()];
-    packet_items(rays, starts, &mut occluded, &mut counters)
-        .into_par_iter()
-        .for_each_init(
-            PacketBuffer::default,
-            |buffer, (rays, sizes, occluded, counters)| {
-                let mut at = 0;
-                for size in sizes {
-                    let range = at..at + size;
-                    accel.occluded_packet::<I, C>(
-                        buffer,
-                        &rays[range.clone()],
-                        &mut occluded[range.clone()],
-                        &mut counters[range],
-                    );
-                    at += size;
-                }
-            },
-        );
-    (occluded, counters)
+    trace_packets(rays, starts, false, |buffer, rays, occluded, counters| {
+        accel.occluded_packet::<I, C>(buffer, rays, occluded, counters)
+    })
 }
 
 /// Closest hits of `rays` one at a time with intersector `I`, on the current rayon
