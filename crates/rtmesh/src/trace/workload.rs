@@ -491,6 +491,19 @@ pub fn measure_by<I: Intersector>(
     )
 }
 
+/// Run `timed` `runs` times (at least once): the seconds of every run and the last
+/// run's result.
+fn timed_runs<R>(runs: usize, timed: impl Fn() -> R) -> (Vec<f64>, R) {
+    let mut all_seconds = Vec::with_capacity(runs.max(1));
+    let mut last = None;
+    for _ in 0..runs.max(1) {
+        let start = std::time::Instant::now();
+        last = Some(timed());
+        all_seconds.push(start.elapsed().as_secs_f64());
+    }
+    (all_seconds, last.expect("at least one run"))
+}
+
 /// Time `timed` `runs` times, then count once with `counted`.
 fn measure_closest(
     rays: &[Ray],
@@ -499,13 +512,7 @@ fn measure_closest(
     timed: impl Fn() -> Vec<Hit>,
     counted: impl Fn() -> Vec<RayCounters>,
 ) -> TraceRun {
-    let mut all_seconds = Vec::with_capacity(runs);
-    let mut hits = Vec::new();
-    for _ in 0..runs.max(1) {
-        let start = std::time::Instant::now();
-        hits = timed();
-        all_seconds.push(start.elapsed().as_secs_f64());
-    }
+    let (all_seconds, hits) = timed_runs(runs, timed);
     let found = hits.iter().filter(|h| h.is_hit()).count();
     summarize(
         rays,
@@ -524,13 +531,7 @@ fn measure_occluded(
     timed: impl Fn() -> Vec<bool>,
     counted: impl Fn() -> Vec<RayCounters>,
 ) -> TraceRun {
-    let mut all_seconds = Vec::with_capacity(runs);
-    let mut occluded = Vec::new();
-    for _ in 0..runs.max(1) {
-        let start = std::time::Instant::now();
-        occluded = timed();
-        all_seconds.push(start.elapsed().as_secs_f64());
-    }
+    let (all_seconds, occluded) = timed_runs(runs, timed);
     let blocked = occluded.iter().filter(|&&o| o).count();
     let checksum = occlusion_checksum(&occluded, pixels);
     summarize(rays, all_seconds, blocked, checksum, &counted())
