@@ -13,11 +13,13 @@ pub mod data;
 pub mod embree;
 pub mod geom;
 pub mod io;
+pub mod lint;
 pub mod mesh;
 pub mod pair;
 pub mod radix;
 pub mod random;
 pub mod render;
+pub mod repair;
 pub mod scenes;
 pub mod trace;
 

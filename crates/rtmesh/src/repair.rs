@@ -1,0 +1,308 @@
+//! Mesh repair after NVIDIA's "Creating Optimal Meshes for Ray Tracing": fix what
+//! [`crate::lint`] finds, keeping the map from every output triangle to its input
+//! triangle.
+//!
+//! - Weld vertices with identical positions (so that neighbours share edges).
+//! - Degenerate triangles (repeated indices, zero area): removed, or made inactive
+//!   (all three corners NaN, the DXR convention) so that triangle ids stay put.
+//! - Elongated triangles: conforming longest-edge bisection. Each round takes the
+//!   longest edge of every elongated triangle, longest first, and splits it at its
+//!   midpoint in *every* triangle that uses it (so no T-junction appears and a
+//!   watertight mesh stays watertight), one split per triangle per round; a split
+//!   triangle `(a, b, c)` on edge `ab` becomes `(a, m, c)` and `(m, b, c)`, same
+//!   winding, same surface. Rounds repeat until no triangle is elongated or the
+//!   triangle budget is spent. Cost per round O(T) plus the edge adjacency, O(T).
+
+use crate::lint::{LintSettings, TriangleShape};
+use crate::mesh::{validate, weld_exact, EdgeAdjacency, Scene, TriMesh, NO_EDGE};
+use glam::Vec3;
+use serde::Serialize;
+
+/// What to do with degenerate triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Degenerate {
+    /// Leave them.
+    Keep,
+    /// Drop them.
+    Remove,
+    /// Point them at a NaN vertex: inactive, ids kept.
+    Inactive,
+}
+
+/// Which repairs to run.
+#[derive(Clone, Debug, Serialize)]
+pub struct RepairSettings {
+    /// Merge vertices with identical positions (always done before splitting).
+    pub weld: bool,
+    /// Degenerate triangles.
+    pub degenerate: Degenerate,
+    /// Split elongated triangles (as [`LintSettings`] define them).
+    pub split_elongated: bool,
+    /// Thresholds for "elongated".
+    pub lint: LintSettings,
+    /// Most output triangles per input triangle when splitting.
+    pub triangle_budget: f32,
+}
+
+impl Default for RepairSettings {
+    fn default() -> Self {
+        Self {
+            weld: true,
+            degenerate: Degenerate::Remove,
+            split_elongated: false,
+            lint: LintSettings::default(),
+            triangle_budget: 2.0,
+        }
+    }
+}
+
+/// What repair did, summed over geometries.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct RepairReport {
+    /// Input triangles.
+    pub triangles_in: usize,
+    /// Output triangles.
+    pub triangles_out: usize,
+    /// Vertices merged by welding.
+    pub merged_vertices: usize,
+    /// Degenerate triangles removed.
+    pub removed_degenerate: usize,
+    /// Degenerate triangles made inactive.
+    pub made_inactive: usize,
+    /// Edges split.
+    pub split_edges: usize,
+    /// Elongated triangles before.
+    pub elongated_before: usize,
+    /// Elongated triangles after (splitting a fan makes more, smaller ones).
+    pub elongated_after: usize,
+    /// Σ over triangles of box half-area × box empty space, before: the box area rays
+    /// test for nothing.
+    pub wasted_box_area_before: f64,
+    /// The same after.
+    pub wasted_box_area_after: f64,
+    /// True when splitting stopped at the triangle budget.
+    pub budget_reached: bool,
+}
+
+/// A repaired geometry and, per output triangle, its input triangle id.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Repaired {
+    /// The repaired mesh.
+    pub mesh: TriMesh,
+    /// `input_triangle[t]` = the input triangle output triangle `t` came from.
+    pub input_triangle: Vec<u32>,
+}
+
+/// The shape of triangle `t`, or `None` when an index is out of range or a corner
+/// is not finite.
+fn shape(mesh: &TriMesh, t: usize) -> Option<TriangleShape> {
+    let n = mesh.positions.len();
+    (mesh.triangles[t].iter().all(|&v| (v as usize) < n)
+        && mesh.corners(t).iter().all(|p| p.is_finite()))
+    .then(|| TriangleShape::of(mesh.corners(t)))
+}
+
+fn is_elongated(mesh: &TriMesh, t: usize, settings: &LintSettings) -> bool {
+    shape(mesh, t).is_some_and(|s| s.is_elongated(settings))
+}
+
+/// Elongated triangles and the wasted box area (Σ half-area × empty space).
+fn elongation(mesh: &TriMesh, settings: &LintSettings) -> (usize, f64) {
+    (0..mesh.triangle_count())
+        .filter_map(|t| shape(mesh, t))
+        .fold((0, 0.0), |(count, wasted), s| {
+            (
+                count + s.is_elongated(settings) as usize,
+                wasted + (s.box_half_area * s.empty_space) as f64,
+            )
+        })
+}
+
+/// Repair one geometry.
+pub fn repair_mesh(mesh: &TriMesh, settings: &RepairSettings) -> (Repaired, RepairReport) {
+    let (elongated_before, wasted_box_area_before) = elongation(mesh, &settings.lint);
+    let mut report = RepairReport {
+        triangles_in: mesh.triangle_count(),
+        elongated_before,
+        wasted_box_area_before,
+        ..RepairReport::default()
+    };
+    let mut mesh = if settings.weld || settings.split_elongated {
+        let welded = weld_exact(mesh);
+        report.merged_vertices = welded.merged;
+        welded.mesh
+    } else {
+        mesh.clone()
+    };
+    let mut input_triangle: Vec<u32> = (0..mesh.triangle_count() as u32).collect();
+    if settings.degenerate != Degenerate::Keep {
+        let validation = validate(&mesh);
+        let mut degenerate: Vec<u32> = validation
+            .repeated_vertices
+            .iter()
+            .chain(&validation.zero_area)
+            .copied()
+            .collect();
+        degenerate.sort_unstable();
+        if settings.degenerate == Degenerate::Remove {
+            let keep: Vec<bool> = (0..mesh.triangle_count() as u32)
+                .map(|t| degenerate.binary_search(&t).is_err())
+                .collect();
+            retain_triangles(&mut mesh, &mut input_triangle, &keep);
+            report.removed_degenerate = degenerate.len();
+        } else if !degenerate.is_empty() {
+            let nan = mesh.positions.len() as u32;
+            mesh.positions.push(Vec3::NAN);
+            for &t in &degenerate {
+                mesh.triangles[t as usize] = [nan; 3];
+            }
+            report.made_inactive = degenerate.len();
+        }
+    }
+    if settings.split_elongated {
+        let budget = (settings.triangle_budget.max(1.0) * report.triangles_in as f32) as usize;
+        let (split, reached) = split_elongated(&mut mesh, &mut input_triangle, &settings.lint, budget);
+        report.split_edges = split;
+        report.budget_reached = reached;
+    }
+    report.triangles_out = mesh.triangle_count();
+    (report.elongated_after, report.wasted_box_area_after) = elongation(&mesh, &settings.lint);
+    (
+        Repaired {
+            mesh,
+            input_triangle,
+        },
+        report,
+    )
+}
+
+/// Repair every geometry of `scene` (instances and materials kept); returns the
+/// repaired scene, per geometry the map to input triangle ids, and the summed report.
+pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, Vec<Vec<u32>>, RepairReport) {
+    let mut out = scene.clone();
+    let mut maps = Vec::with_capacity(scene.meshes.len());
+    let mut total = RepairReport::default();
+    for (g, mesh) in scene.meshes.iter().enumerate() {
+        let (repaired, report) = repair_mesh(mesh, settings);
+        out.meshes[g] = repaired.mesh;
+        maps.push(repaired.input_triangle);
+        total.triangles_in += report.triangles_in;
+        total.triangles_out += report.triangles_out;
+        total.merged_vertices += report.merged_vertices;
+        total.removed_degenerate += report.removed_degenerate;
+        total.made_inactive += report.made_inactive;
+        total.split_edges += report.split_edges;
+        total.elongated_before += report.elongated_before;
+        total.elongated_after += report.elongated_after;
+        total.wasted_box_area_before += report.wasted_box_area_before;
+        total.wasted_box_area_after += report.wasted_box_area_after;
+        total.budget_reached |= report.budget_reached;
+    }
+    (out, maps, total)
+}
+
+/// Keep the triangles (and their attributes and input ids) where `keep` is true.
+fn retain_triangles(mesh: &mut TriMesh, input_triangle: &mut Vec<u32>, keep: &[bool]) {
+    fn kept<T: Copy>(values: &[T], keep: &[bool]) -> Vec<T> {
+        values.iter().zip(keep).filter(|(_, &k)| k).map(|(&v, _)| v).collect()
+    }
+    mesh.triangles = kept(&mesh.triangles, keep);
+    mesh.material_ids = kept(&mesh.material_ids, keep);
+    mesh.alpha_tested = kept(&mesh.alpha_tested, keep);
+    *input_triangle = kept(input_triangle, keep);
+}
+
+/// Conforming longest-edge bisection of the elongated triangles of `mesh` (welded),
+/// at most `budget` triangles in the end. Returns the edges split and whether the
+/// budget stopped it.
+fn split_elongated(
+    mesh: &mut TriMesh,
+    input_triangle: &mut Vec<u32>,
+    settings: &LintSettings,
+    budget: usize,
+) -> (usize, bool) {
+    let mut split = 0;
+    for _round in 0..64 {
+        let adjacency = EdgeAdjacency::build(mesh);
+        let length = |e: u32| {
+            let [a, b] = adjacency.edges[e as usize];
+            (mesh.positions[a as usize] - mesh.positions[b as usize]).length_squared()
+        };
+        // The longest edge of every elongated triangle, longest first.
+        let mut candidates: Vec<u32> = (0..mesh.triangle_count())
+            .filter(|&t| is_elongated(mesh, t, settings))
+            .filter_map(|t| {
+                adjacency.triangle_edges[t]
+                    .iter()
+                    .copied()
+                    .filter(|&e| e != NO_EDGE)
+                    .max_by(|&a, &b| length(a).total_cmp(&length(b)))
+            })
+            .collect();
+        if candidates.is_empty() {
+            return (split, false);
+        }
+        candidates.sort_unstable_by(|&a, &b| length(b).total_cmp(&length(a)).then(a.cmp(&b)));
+        candidates.dedup();
+        let mut taken = vec![false; mesh.triangle_count()];
+        let mut accepted = Vec::new();
+        let mut count = mesh.triangle_count();
+        for e in candidates {
+            let triangles = adjacency.triangles_of(e);
+            if triangles.iter().any(|&t| taken[t as usize]) {
+                continue;
+            }
+            if count + triangles.len() > budget {
+                apply_splits(mesh, input_triangle, &adjacency, &accepted);
+                return (split + accepted.len(), true);
+            }
+            for &t in triangles {
+                taken[t as usize] = true;
+            }
+            count += triangles.len();
+            accepted.push(e);
+        }
+        apply_splits(mesh, input_triangle, &adjacency, &accepted);
+        split += accepted.len();
+    }
+    (split, false)
+}
+
+/// Split every triangle of each edge in `edges` at the edge's midpoint.
+fn apply_splits(
+    mesh: &mut TriMesh,
+    input_triangle: &mut Vec<u32>,
+    adjacency: &EdgeAdjacency,
+    edges: &[u32],
+) {
+    for &e in edges {
+        let [a, b] = adjacency.edges[e as usize];
+        let m = mesh.positions.len() as u32;
+        mesh.positions
+            .push((mesh.positions[a as usize] + mesh.positions[b as usize]) * 0.5);
+        for &t in adjacency.triangles_of(e) {
+            let t = t as usize;
+            let k = (0..3)
+                .find(|&k| adjacency.triangle_edges[t][k] == e)
+                .expect("the edge is a side of its triangle");
+            let tri = mesh.triangles[t];
+            let (from, to, opposite) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            mesh.triangles[t] = rotate_to(k, [from, m, opposite]);
+            mesh.triangles.push([m, to, opposite]);
+            mesh.material_ids.push(mesh.material_ids[t]);
+            mesh.alpha_tested.push(mesh.alpha_tested[t]);
+            input_triangle.push(input_triangle[t]);
+        }
+    }
+}
+
+/// `replacement`, listed from the parent's corner `k`, rotated back so that the kept
+/// half lists its corners in the parent's order.
+fn rotate_to(k: usize, replacement: [u32; 3]) -> [u32; 3] {
+    let mut out = [0; 3];
+    for (i, &v) in replacement.iter().enumerate() {
+        out[(k + i) % 3] = v;
+    }
+    out
+}

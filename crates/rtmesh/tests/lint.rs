@@ -1,0 +1,301 @@
+//! Lint finds exactly the problems planted in hand-built meshes, and repair keeps the
+//! surface, the windings, watertightness, the map to input triangles and the first
+//! hits.
+
+use glam::{Affine3A, Vec3};
+use proptest::prelude::*;
+use rtmesh::bvh::BuildSettings;
+use rtmesh::lint::{lint, LintSettings};
+use rtmesh::mesh::{weld_exact, EdgeAdjacency};
+use rtmesh::repair::{repair_mesh, Degenerate, RepairSettings};
+use rtmesh::trace::workload::trace_closest;
+use rtmesh::trace::{NoCounters, RayKind, SceneAccel, Workload};
+use rtmesh::{Scene, TriMesh};
+use std::collections::BTreeSet;
+
+/// An `n` × `n` grid of unit quads in the plane z = `z`, axis-aligned: the clean base.
+fn grid(n: usize, origin: Vec3) -> TriMesh {
+    let side = n + 1;
+    let positions = (0..side * side)
+        .map(|i| origin + Vec3::new((i % side) as f32, (i / side) as f32, 0.0))
+        .collect();
+    let mut triangles = Vec::new();
+    for y in 0..n {
+        for x in 0..n {
+            let a = (y * side + x) as u32;
+            let (b, c, d) = (a + 1, a + 1 + side as u32, a + side as u32);
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    TriMesh::new(positions, triangles)
+}
+
+/// `mesh` plus triangles with the given corners (each its own vertices).
+fn with(mut mesh: TriMesh, extra: &[[Vec3; 3]]) -> TriMesh {
+    for corners in extra {
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(corners);
+        mesh.triangles.push([base, base + 1, base + 2]);
+        mesh.material_ids.push(0);
+        mesh.alpha_tested.push(false);
+    }
+    mesh
+}
+
+fn kinds(scene: &Scene) -> BTreeSet<&'static str> {
+    lint(scene, &LintSettings::default())
+        .findings
+        .iter()
+        .map(|f| f.kind)
+        .collect()
+}
+
+fn finding(scene: &Scene, kind: &str) -> rtmesh::lint::Finding {
+    lint(scene, &LintSettings::default())
+        .findings
+        .into_iter()
+        .find(|f| f.kind == kind)
+        .unwrap_or_else(|| panic!("no {kind} finding"))
+}
+
+/// A fan of `n` triangles of radius 4 around (5, 5, −5).
+fn fan(n: usize) -> TriMesh {
+    let centre = Vec3::new(5.0, 5.0, -5.0);
+    let mut positions = vec![centre];
+    for k in 0..n {
+        let angle = std::f32::consts::TAU * k as f32 / n as f32;
+        positions.push(centre + 4.0 * Vec3::new(angle.cos(), angle.sin(), 0.0));
+    }
+    let triangles = (0..n as u32)
+        .map(|k| [0, 1 + k, 1 + (k + 1) % n as u32])
+        .collect();
+    TriMesh::new(positions, triangles)
+}
+
+#[test]
+fn a_clean_grid_has_no_findings() {
+    assert!(kinds(&Scene::from_mesh(grid(10, Vec3::ZERO))).is_empty());
+}
+
+#[test]
+fn one_sliver_is_found_and_nothing_else() {
+    let sliver = [
+        Vec3::new(0.0, 0.0, 5.0),
+        Vec3::new(10.0, 10.0, 5.0),
+        Vec3::new(10.0, 10.1, 5.0),
+    ];
+    let scene = Scene::from_mesh(with(grid(10, Vec3::ZERO), &[sliver]));
+    assert_eq!(kinds(&scene), BTreeSet::from(["elongated-triangles"]));
+    let found = finding(&scene, "elongated-triangles");
+    assert_eq!((found.count, found.worst.clone()), (1, vec![200]));
+    let share = found.figures.iter().find(|f| f.0 == "share_of_leaf_sah_cost").unwrap().1;
+    assert!(share > 0.3, "one sliver carries a third of 201 triangles' box area: {share}");
+}
+
+#[test]
+fn point_and_line_degenerates_are_found() {
+    let point = [Vec3::new(3.0, 3.0, 1.0); 3];
+    let line = [Vec3::new(1.0, 1.0, 1.0), Vec3::new(2.0, 2.0, 2.0), Vec3::new(3.0, 3.0, 3.0)];
+    let mut mesh = with(grid(10, Vec3::ZERO), &[point, line]);
+    // And one with a repeated index.
+    mesh.triangles.push([0, 0, 1]);
+    mesh.material_ids.push(0);
+    mesh.alpha_tested.push(false);
+    let scene = Scene::from_mesh(mesh);
+    assert_eq!(kinds(&scene), BTreeSet::from(["degenerate-triangles"]));
+    let found = finding(&scene, "degenerate-triangles");
+    assert_eq!((found.count, found.worst.clone()), (3, vec![200, 201, 202]));
+    let at_origin = Scene::from_mesh(with(grid(10, Vec3::ZERO), &[[Vec3::ZERO; 3]]));
+    let found = finding(&at_origin, "degenerate-triangles");
+    assert!(found.advice.contains("origin"), "{}", found.advice);
+}
+
+#[test]
+fn a_nan_triangle_is_inactive() {
+    let scene = Scene::from_mesh(with(
+        grid(10, Vec3::ZERO),
+        &[[Vec3::NAN, Vec3::ONE, Vec3::X]],
+    ));
+    assert_eq!(kinds(&scene), BTreeSet::from(["inactive-triangles"]));
+    assert_eq!(finding(&scene, "inactive-triangles").worst, vec![200]);
+}
+
+#[test]
+fn a_fan_is_found_at_its_centre() {
+    let scene = Scene::from_mesh(fan(256));
+    assert_eq!(kinds(&scene), BTreeSet::from(["elongated-triangles", "fans"]));
+    let found = finding(&scene, "fans");
+    assert_eq!((found.count, found.worst.clone()), (1, vec![0]));
+}
+
+#[test]
+fn scattered_pieces_in_one_geometry_are_found() {
+    let mut mesh = grid(2, Vec3::ZERO);
+    let far = grid(2, Vec3::new(100.0, 100.0, 50.0));
+    mesh.append(&far, &Affine3A::IDENTITY, 0);
+    let scene = Scene::from_mesh(mesh);
+    assert_eq!(kinds(&scene), BTreeSet::from(["scattered-geometry"]));
+    assert_eq!(finding(&scene, "scattered-geometry").count, 2);
+}
+
+#[test]
+fn overlapping_geometries_are_found() {
+    let mut scene = Scene::from_mesh(rtmesh::scenes::box_mesh(Vec3::ZERO, Vec3::splat(10.0)));
+    scene.push_mesh(grid(10, Vec3::new(0.0, 0.0, 5.0)), Affine3A::IDENTITY);
+    assert_eq!(kinds(&scene), BTreeSet::from(["overlapping-geometries"]));
+    assert_eq!(finding(&scene, "overlapping-geometries").worst, vec![1]);
+}
+
+#[test]
+fn mixed_alpha_is_found() {
+    let mut mesh = grid(4, Vec3::ZERO);
+    for t in 0..8 {
+        mesh.alpha_tested[t] = true;
+    }
+    let scene = Scene::from_mesh(mesh);
+    assert_eq!(kinds(&scene), BTreeSet::from(["mixed-alpha"]));
+    assert_eq!(finding(&scene, "mixed-alpha").count, 8);
+}
+
+fn total_area(mesh: &TriMesh) -> f64 {
+    (0..mesh.triangle_count())
+        .map(|t| {
+            let [a, b, c] = mesh.corners(t);
+            rtmesh::geom::triangle_area(a, b, c) as f64
+        })
+        .filter(|a| a.is_finite())
+        .sum()
+}
+
+/// The repair properties: surface and windings kept, every input triangle still
+/// there (split or not), closed meshes stay closed.
+fn check_split(mesh: &TriMesh) {
+    let settings = RepairSettings {
+        split_elongated: true,
+        degenerate: Degenerate::Keep,
+        ..RepairSettings::default()
+    };
+    let (repaired, report) = repair_mesh(mesh, &settings);
+    let out = &repaired.mesh;
+    assert_eq!(repaired.input_triangle.len(), out.triangle_count());
+    assert_eq!(report.triangles_out, out.triangle_count());
+    let (before, after) = (total_area(mesh), total_area(out));
+    assert!((before - after).abs() <= 1e-6 * before.max(1e-30), "{before} {after}");
+    // Each input triangle's pieces: same total area, same facing, points on it.
+    let mut area_of = vec![0.0f64; mesh.triangle_count()];
+    for (t, &input) in repaired.input_triangle.iter().enumerate() {
+        let [a, b, c] = out.corners(t);
+        let [p, q, r] = mesh.corners(input as usize);
+        let (n_out, n_in) = ((b - a).cross(c - a), (q - p).cross(r - p));
+        if n_in.length() > 0.0 && n_out.length() > 0.0 {
+            assert!(n_out.dot(n_in) > 0.0, "triangle {t} flipped");
+        }
+        area_of[input as usize] += rtmesh::geom::triangle_area(a, b, c) as f64;
+    }
+    for (t, &area) in area_of.iter().enumerate() {
+        let [a, b, c] = mesh.corners(t);
+        let expected = rtmesh::geom::triangle_area(a, b, c) as f64;
+        // f32 areas of thin triangles carry an error of order ε·(longest edge)².
+        let longest = [(b - a), (c - b), (a - c)]
+            .iter()
+            .map(|e| e.length_squared() as f64)
+            .fold(0.0, f64::max);
+        let tolerance = 1e-5 * longest + 1e-4 * expected;
+        assert!((area - expected).abs() <= tolerance, "input {t}: {area} vs {expected}");
+    }
+    let boundary = |m: &TriMesh| EdgeAdjacency::build(&weld_exact(m).mesh).boundary_edge_count();
+    if boundary(mesh) == 0 {
+        assert_eq!(boundary(out), 0, "a watertight mesh stays watertight");
+    }
+}
+
+#[test]
+fn splitting_keeps_surface_windings_and_watertightness() {
+    for mesh in [
+        rtmesh::scenes::fan_cylinder(64),
+        rtmesh::scenes::rotated_grid(8),
+        fan(256),
+        rtmesh::scenes::uv_sphere(8, 64),
+    ] {
+        check_split(&mesh);
+    }
+}
+
+#[test]
+fn splitting_the_fan_cylinder_helps_and_traces_the_same_triangles() {
+    let mesh = rtmesh::scenes::fan_cylinder(128);
+    let settings = RepairSettings {
+        split_elongated: true,
+        triangle_budget: 8.0,
+        ..RepairSettings::default()
+    };
+    let (repaired, report) = repair_mesh(&mesh, &settings);
+    assert!(report.elongated_before > 0);
+    assert!(
+        report.wasted_box_area_after < 0.8 * report.wasted_box_area_before,
+        "{report:?}"
+    );
+    let before = Scene::from_mesh(mesh.clone());
+    let after = Scene::from_mesh(repaired.mesh.clone());
+    let accel_before = SceneAccel::build(&before, &BuildSettings::default());
+    let accel_after = SceneAccel::build(&after, &BuildSettings::default());
+    for kind in [RayKind::Primary, RayKind::Diffuse] {
+        let work = Workload::generate(kind, &before, &accel_before, 96, 96, 3);
+        let a = trace_closest::<NoCounters>(&accel_before, &work.rays).0;
+        let b = trace_closest::<NoCounters>(&accel_after, &work.rays).0;
+        let mut differ = 0;
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.is_hit(), y.is_hit());
+            if x.is_hit() && x.triangle != repaired.input_triangle[y.triangle as usize] {
+                differ += 1;
+            }
+        }
+        assert!(differ * 200 <= work.rays.len(), "{differ} rays hit another input triangle");
+    }
+}
+
+#[test]
+fn degenerates_are_removed_or_made_inactive() {
+    let point = [Vec3::new(3.0, 3.0, 1.0); 3];
+    let mesh = with(grid(4, Vec3::ZERO), &[point]);
+    let (removed, report) = repair_mesh(&mesh, &RepairSettings::default());
+    assert_eq!(report.removed_degenerate, 1);
+    assert_eq!(removed.mesh.triangle_count(), 32);
+    assert_eq!(removed.input_triangle, (0..32).collect::<Vec<u32>>());
+    let inactive = RepairSettings {
+        degenerate: Degenerate::Inactive,
+        ..RepairSettings::default()
+    };
+    let (kept, report) = repair_mesh(&mesh, &inactive);
+    assert_eq!(report.made_inactive, 1);
+    assert_eq!(kept.mesh.triangle_count(), 33);
+    assert!(kept.mesh.corners(32).iter().all(|p| p.is_nan()));
+    assert_eq!(
+        kinds(&Scene::from_mesh(kept.mesh)),
+        BTreeSet::from(["inactive-triangles"])
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// Random slivers scattered through a jittered grid, and a random blob.
+    #[test]
+    fn splitting_random_meshes_keeps_the_properties(seed in 0u64..1_000, n in 2usize..10) {
+        let mut rng = rtmesh::random::SplitMix64::new(seed);
+        let mut mesh = grid(n, Vec3::ZERO);
+        for p in &mut mesh.positions {
+            p.z += 0.3 * rng.next_f32();
+        }
+        let slivers: Vec<[Vec3; 3]> = (0..n)
+            .map(|_| {
+                let a = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * n as f32;
+                let d = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0;
+                [a, a + d, a + d * 1.01 + Vec3::Z * 0.01]
+            })
+            .collect();
+        check_split(&with(mesh, &slivers));
+        check_split(&rtmesh::scenes::scan_blob(200 + 10 * n, seed));
+    }
+}
