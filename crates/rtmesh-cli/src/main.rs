@@ -6,9 +6,11 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use rtmesh::bvh::BuildSettings;
+use rtmesh::lint::{LintReport, LintSettings};
 use rtmesh::mesh::MeshInfo;
 use rtmesh::pair::{PairMethod, PairReport, PairSettings, Pairing};
 use rtmesh::render::HeatmapMetric;
+use rtmesh::repair::{Degenerate, RepairSettings};
 use rtmesh::trace::compare::{CompareSettings, Comparison};
 use rtmesh::trace::intersect::{Intersector, IntersectorKind, Simd, TriangleSoa, WithIntersector};
 use rtmesh::trace::{workload, RayKind, SceneAccel, Workload};
@@ -80,6 +82,69 @@ enum Command {
         /// sah-max: largest pair box area over the sum of the two triangles' box areas.
         #[arg(long, default_value_t = 1.0)]
         pair_box_limit: f32,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Find what makes a mesh slow to ray trace (after NVIDIA's advice).
+    ///
+    /// Per geometry: elongated triangles (box mostly empty space, or long and thin),
+    /// fans, degenerate, inactive (NaN), infinite and out-of-range triangles,
+    /// alpha-tested triangles mixed with opaque ones, geometries whose pieces are far
+    /// apart, and geometries whose boxes overlap. Each finding has a count, the worst
+    /// offenders' ids, a severity, figures and one line of advice.
+    Lint {
+        /// The mesh file, or builtin:NAME.
+        mesh: String,
+        /// Box empty space (0..1) from which a triangle is elongated.
+        #[arg(long, default_value_t = 0.8)]
+        empty_space: f32,
+        /// Aspect (longest edge² / twice the area) from which a triangle is elongated.
+        #[arg(long, default_value_t = 25.0)]
+        aspect: f32,
+        /// Print one JSON object instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Fix what lint finds, write the result, and measure the gain with the tracer.
+    ///
+    /// Welds identical positions, removes degenerate triangles (or with --inactive
+    /// points them at a NaN vertex, keeping triangle ids), and with --split-elongated
+    /// splits elongated triangles by conforming longest-edge bisection (neighbours
+    /// across a split edge are split too: no T-junctions, watertight stays watertight)
+    /// up to --budget times the input triangles. Then traces the same primary and
+    /// diffuse rays through the input and the result, alternating runs, and reports box
+    /// tests, triangle tests and Mrays/s before and after.
+    Repair {
+        /// The mesh file, or builtin:NAME.
+        mesh: String,
+        /// Write the repaired mesh here (.obj, .ply, .gltf or .glb).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Split elongated triangles.
+        #[arg(long)]
+        split_elongated: bool,
+        /// Make degenerate triangles inactive (NaN) instead of removing them.
+        #[arg(long)]
+        inactive: bool,
+        /// Most output triangles per input triangle when splitting.
+        #[arg(long, default_value_t = 2.0)]
+        budget: f32,
+        /// Box empty space from which a triangle is elongated.
+        #[arg(long, default_value_t = 0.8)]
+        empty_space: f32,
+        /// Aspect from which a triangle is elongated.
+        #[arg(long, default_value_t = 25.0)]
+        aspect: f32,
+        /// Write, per geometry, the input triangle id of every output triangle (JSON).
+        #[arg(long, value_name = "FILE")]
+        map: Option<PathBuf>,
+        /// Image size of the before/after measurement (0x0 skips it).
+        #[arg(long, default_value = "512x512", value_parser = parse_size_or_zero)]
+        size: (usize, usize),
+        /// Timed rounds of the measurement (medians).
+        #[arg(long, default_value_t = 5)]
+        runs: usize,
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
@@ -357,6 +422,15 @@ fn parse_packet(text: &str) -> Result<usize, String> {
     }
 }
 
+/// WIDTHxHEIGHT, or 0x0 for "none".
+fn parse_size_or_zero(text: &str) -> Result<(usize, usize), String> {
+    if text == "0x0" {
+        Ok((0, 0))
+    } else {
+        parse_size(text)
+    }
+}
+
 fn parse_size(text: &str) -> Result<(usize, usize), String> {
     let (w, h) = text
         .split_once('x')
@@ -508,6 +582,100 @@ fn run(cli: Cli) -> Result<()> {
                         "wrote {} (pairs first, then unpaired triangles)",
                         output.display()
                     );
+                }
+                Ok(())
+            }
+        }
+        Command::Lint {
+            mesh,
+            empty_space,
+            aspect,
+            json,
+        } => {
+            let scene = load(&mesh)?;
+            let settings = LintSettings {
+                empty_space,
+                aspect,
+                ..LintSettings::default()
+            };
+            let report = rtmesh::lint::lint(&scene, &settings);
+            if json {
+                let mut value = serde_json::to_value(&report)?;
+                value["mesh"] = serde_json::json!(mesh);
+                print_json(&value)
+            } else {
+                print_lint(&mesh, &report);
+                Ok(())
+            }
+        }
+        Command::Repair {
+            mesh,
+            output,
+            split_elongated,
+            inactive,
+            budget,
+            empty_space,
+            aspect,
+            map,
+            size,
+            runs,
+            json,
+        } => {
+            let scene = load(&mesh)?;
+            let settings = RepairSettings {
+                degenerate: if inactive {
+                    Degenerate::Inactive
+                } else {
+                    Degenerate::Remove
+                },
+                split_elongated,
+                triangle_budget: budget,
+                lint: LintSettings {
+                    empty_space,
+                    aspect,
+                    ..LintSettings::default()
+                },
+                ..RepairSettings::default()
+            };
+            let (repaired, maps, report) = rtmesh::repair::repair(&scene, &settings);
+            if let Some(output) = &output {
+                rtmesh::io::write(&repaired, output)?;
+            }
+            if let Some(path) = &map {
+                std::fs::write(path, serde_json::to_string(&maps)?)
+                    .with_context(|| format!("writing {}", path.display()))?;
+            }
+            let measured =
+                (size.0 > 0).then(|| measure_before_after(&scene, &repaired, size, runs));
+            if json {
+                let mut value = serde_json::to_value(&report)?;
+                value["mesh"] = serde_json::json!(mesh);
+                value["output"] = serde_json::json!(output);
+                value["trace"] = serde_json::json!(measured);
+                print_json(&value)
+            } else {
+                println!(
+                    "{mesh}: {} → {} triangles; {} vertices welded, {} degenerate removed, {} made inactive, {} edges split{}",
+                    report.triangles_in, report.triangles_out, report.merged_vertices,
+                    report.removed_degenerate, report.made_inactive, report.split_edges,
+                    if report.budget_reached { " (budget reached)" } else { "" }
+                );
+                println!(
+                    "  elongated    {} → {} triangles, wasted box area {:.4} → {:.4}",
+                    report.elongated_before,
+                    report.elongated_after,
+                    report.wasted_box_area_before,
+                    report.wasted_box_area_after
+                );
+                for row in measured.iter().flatten() {
+                    println!(
+                        "  {:<8} box/ray {:.2} → {:.2}, tri/ray {:.2} → {:.2}, Mrays/s {:.2} → {:.2} ({:+.1}%)",
+                        row.workload, row.box_before, row.box_after, row.tri_before, row.tri_after,
+                        row.mrays_before, row.mrays_after, 100.0 * (row.mrays_after / row.mrays_before - 1.0)
+                    );
+                }
+                if let Some(output) = output {
+                    println!("wrote {}", output.display());
                 }
                 Ok(())
             }
@@ -1253,4 +1421,92 @@ fn bench_packets(
         }
     }
     Ok(())
+}
+
+fn print_lint(name: &str, report: &LintReport) {
+    println!(
+        "{name}: {} triangles in {} geometries, linted in {:.3} s",
+        report.triangles, report.geometries, report.seconds
+    );
+    println!(
+        "  box empty space  p50 {:.2}  p90 {:.2}  p99 {:.2}  max {:.2}",
+        report.empty_space.p50,
+        report.empty_space.p90,
+        report.empty_space.p99,
+        report.empty_space.max
+    );
+    println!(
+        "  aspect           p50 {:.1}  p90 {:.1}  p99 {:.1}  max {:.1}",
+        report.aspect.p50, report.aspect.p90, report.aspect.p99, report.aspect.max
+    );
+    if report.findings.is_empty() {
+        println!("  no findings");
+    }
+    for f in &report.findings {
+        let figures: Vec<String> = f
+            .figures
+            .iter()
+            .map(|(k, v)| format!("{k} {v:.3}"))
+            .collect();
+        println!(
+            "  [{:?}] geometry {} {}: {} ({}); worst {:?}",
+            f.severity,
+            f.geometry,
+            f.kind,
+            f.count,
+            figures.join(", "),
+            f.worst
+        );
+        println!("      {}", f.advice);
+    }
+}
+
+/// One workload traced through the input and the repaired scene.
+#[derive(serde::Serialize)]
+struct BeforeAfter {
+    workload: &'static str,
+    rays: usize,
+    box_before: f64,
+    box_after: f64,
+    tri_before: f64,
+    tri_after: f64,
+    mrays_before: f64,
+    mrays_after: f64,
+}
+
+/// Trace the same primary and diffuse rays through `before` and `after`, alternating
+/// `runs` rounds; medians and counts per ray.
+fn measure_before_after(
+    before: &Scene,
+    after: &Scene,
+    (width, height): (usize, usize),
+    runs: usize,
+) -> Vec<BeforeAfter> {
+    let accel_before = SceneAccel::build(before, &BuildSettings::default());
+    let accel_after = SceneAccel::build(after, &BuildSettings::default());
+    [RayKind::Primary, RayKind::Diffuse]
+        .into_iter()
+        .map(|kind| {
+            let work = Workload::generate(kind, before, &accel_before, width, height, 1);
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            for _ in 0..runs.max(1) {
+                a.push(workload::measure(&accel_before, &work, 1));
+                b.push(workload::measure(&accel_after, &work, 1));
+            }
+            let median = |runs: &[rtmesh::trace::TraceRun]| {
+                workload::median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>())
+            };
+            let rays = work.rays.len();
+            BeforeAfter {
+                workload: kind.name(),
+                rays,
+                box_before: a[0].box_tests_per_ray,
+                box_after: b[0].box_tests_per_ray,
+                tri_before: a[0].tri_tests_per_ray,
+                tri_after: b[0].tri_tests_per_ray,
+                mrays_before: rays as f64 / median(&a) / 1e6,
+                mrays_after: rays as f64 / median(&b) / 1e6,
+            }
+        })
+        .collect()
 }

@@ -133,3 +133,56 @@ fn trace_with_pair_leaves_hits_what_triangle_leaves_hit() {
     assert!(pair["pair_tests_per_ray"].as_f64().unwrap() > 0.0);
     assert!(pair["bvh"]["nodes"].as_u64() < tri["bvh"]["nodes"].as_u64());
 }
+
+#[test]
+fn lint_and_repair_report_and_fix_the_fan_cylinder() {
+    let lint = json_of(&["lint", "builtin:cylinder", "--json"]);
+    for key in [
+        "triangles",
+        "geometries",
+        "empty_space",
+        "aspect",
+        "findings",
+        "seconds",
+    ] {
+        assert!(lint.get(key).is_some(), "lint JSON lacks {key}");
+    }
+    let kinds: Vec<&str> = lint["findings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["kind"].as_str().unwrap())
+        .collect();
+    assert!(
+        kinds.contains(&"elongated-triangles") && kinds.contains(&"fans"),
+        "{kinds:?}"
+    );
+    let dir = std::env::temp_dir().join(format!("rtmesh-cli-repair-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("cylinder.ply");
+    let map = dir.join("map.json");
+    let repair = json_of(&[
+        "repair",
+        "builtin:cylinder",
+        "--split-elongated",
+        "-o",
+        out.to_str().unwrap(),
+        "--map",
+        map.to_str().unwrap(),
+        "--size",
+        "128x128",
+        "--runs",
+        "1",
+        "--json",
+    ]);
+    let triangles_out = repair["triangles_out"].as_u64().unwrap();
+    assert!(triangles_out > repair["triangles_in"].as_u64().unwrap());
+    let map: Vec<Vec<u32>> = serde_json::from_str(&std::fs::read_to_string(&map).unwrap()).unwrap();
+    assert_eq!(map[0].len() as u64, triangles_out);
+    let trace = repair["trace"].as_array().unwrap();
+    assert_eq!(trace.len(), 2);
+    assert!(trace[1]["box_after"].as_f64().unwrap() < trace[1]["box_before"].as_f64().unwrap());
+    let info = json_of(&["info", out.to_str().unwrap(), "--json"]);
+    assert_eq!(info["triangles"].as_u64().unwrap(), triangles_out);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -253,8 +253,14 @@ fn lint_triangles(
         count: elongated.len(),
         worst: worst_by(elongated.clone(), settings.worst, wasted),
         figures: vec![
-            ("share_of_triangles", elongated.len() as f64 / shapes.len() as f64),
-            ("share_of_leaf_sah_cost", carried / total.max(f64::MIN_POSITIVE)),
+            (
+                "share_of_triangles",
+                elongated.len() as f64 / shapes.len() as f64,
+            ),
+            (
+                "share_of_leaf_sah_cost",
+                carried / total.max(f64::MIN_POSITIVE),
+            ),
         ],
         advice: "long thin triangles have large, mostly empty boxes that many rays test: \
                  split them (rtmesh repair --split-elongated) or remodel",
@@ -310,7 +316,11 @@ fn lint_broken(
     if !degenerate.is_empty() {
         let at_origin = degenerate
             .iter()
-            .filter(|&&t| mesh.corners(t as usize).iter().all(|p| *p == glam::Vec3::ZERO))
+            .filter(|&&t| {
+                mesh.corners(t as usize)
+                    .iter()
+                    .all(|p| *p == glam::Vec3::ZERO)
+            })
             .count();
         findings.push(Finding {
             kind: "degenerate-triangles",
@@ -319,7 +329,10 @@ fn lint_broken(
             count: degenerate.len(),
             worst: degenerate.iter().copied().take(settings.worst).collect(),
             figures: vec![
-                ("repeated_indices", validation.repeated_vertices.len() as f64),
+                (
+                    "repeated_indices",
+                    validation.repeated_vertices.len() as f64,
+                ),
                 ("zero_area", validation.zero_area.len() as f64),
                 ("at_origin", at_origin as f64),
             ],
@@ -336,7 +349,11 @@ fn lint_broken(
         .non_finite_positions
         .iter()
         .copied()
-        .filter(|&t| mesh.triangles[t as usize].iter().any(|&v| mesh.positions[v as usize].is_nan()))
+        .filter(|&t| {
+            mesh.triangles[t as usize]
+                .iter()
+                .any(|&v| mesh.positions[v as usize].is_nan())
+        })
         .collect();
     let infinite: Vec<u32> = validation
         .non_finite_positions

@@ -89,14 +89,26 @@ fn one_sliver_is_found_and_nothing_else() {
     assert_eq!(kinds(&scene), BTreeSet::from(["elongated-triangles"]));
     let found = finding(&scene, "elongated-triangles");
     assert_eq!((found.count, found.worst.clone()), (1, vec![200]));
-    let share = found.figures.iter().find(|f| f.0 == "share_of_leaf_sah_cost").unwrap().1;
-    assert!(share > 0.3, "one sliver carries a third of 201 triangles' box area: {share}");
+    let share = found
+        .figures
+        .iter()
+        .find(|f| f.0 == "share_of_leaf_sah_cost")
+        .unwrap()
+        .1;
+    assert!(
+        share > 0.3,
+        "one sliver carries a third of 201 triangles' box area: {share}"
+    );
 }
 
 #[test]
 fn point_and_line_degenerates_are_found() {
     let point = [Vec3::new(3.0, 3.0, 1.0); 3];
-    let line = [Vec3::new(1.0, 1.0, 1.0), Vec3::new(2.0, 2.0, 2.0), Vec3::new(3.0, 3.0, 3.0)];
+    let line = [
+        Vec3::new(1.0, 1.0, 1.0),
+        Vec3::new(2.0, 2.0, 2.0),
+        Vec3::new(3.0, 3.0, 3.0),
+    ];
     let mut mesh = with(grid(10, Vec3::ZERO), &[point, line]);
     // And one with a repeated index.
     mesh.triangles.push([0, 0, 1]);
@@ -124,7 +136,10 @@ fn a_nan_triangle_is_inactive() {
 #[test]
 fn a_fan_is_found_at_its_centre() {
     let scene = Scene::from_mesh(fan(256));
-    assert_eq!(kinds(&scene), BTreeSet::from(["elongated-triangles", "fans"]));
+    assert_eq!(
+        kinds(&scene),
+        BTreeSet::from(["elongated-triangles", "fans"])
+    );
     let found = finding(&scene, "fans");
     assert_eq!((found.count, found.worst.clone()), (1, vec![0]));
 }
@@ -181,7 +196,10 @@ fn check_split(mesh: &TriMesh) {
     assert_eq!(repaired.input_triangle.len(), out.triangle_count());
     assert_eq!(report.triangles_out, out.triangle_count());
     let (before, after) = (total_area(mesh), total_area(out));
-    assert!((before - after).abs() <= 1e-6 * before.max(1e-30), "{before} {after}");
+    assert!(
+        (before - after).abs() <= 1e-6 * before.max(1e-30),
+        "{before} {after}"
+    );
     // Each input triangle's pieces: same total area, same facing, points on it.
     let mut area_of = vec![0.0f64; mesh.triangle_count()];
     for (t, &input) in repaired.input_triangle.iter().enumerate() {
@@ -202,7 +220,10 @@ fn check_split(mesh: &TriMesh) {
             .map(|e| e.length_squared() as f64)
             .fold(0.0, f64::max);
         let tolerance = 1e-5 * longest + 1e-4 * expected;
-        assert!((area - expected).abs() <= tolerance, "input {t}: {area} vs {expected}");
+        assert!(
+            (area - expected).abs() <= tolerance,
+            "input {t}: {area} vs {expected}"
+        );
     }
     let boundary = |m: &TriMesh| EdgeAdjacency::build(&weld_exact(m).mesh).boundary_edge_count();
     if boundary(mesh) == 0 {
@@ -251,7 +272,10 @@ fn splitting_the_fan_cylinder_helps_and_traces_the_same_triangles() {
                 differ += 1;
             }
         }
-        assert!(differ * 200 <= work.rays.len(), "{differ} rays hit another input triangle");
+        assert!(
+            differ * 200 <= work.rays.len(),
+            "{differ} rays hit another input triangle"
+        );
     }
 }
 
