@@ -306,13 +306,7 @@ fn lint_broken(
     settings: &LintSettings,
     findings: &mut Vec<Finding>,
 ) {
-    let mut degenerate: Vec<u32> = validation
-        .repeated_vertices
-        .iter()
-        .chain(&validation.zero_area)
-        .copied()
-        .collect();
-    degenerate.sort_unstable();
+    let degenerate = validation.degenerate();
     if !degenerate.is_empty() {
         let at_origin = degenerate
             .iter()

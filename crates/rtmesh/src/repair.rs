@@ -141,13 +141,7 @@ pub fn repair_mesh(mesh: &TriMesh, settings: &RepairSettings) -> (Repaired, Repa
     let mut input_triangle: Vec<u32> = (0..mesh.triangle_count() as u32).collect();
     if settings.degenerate != Degenerate::Keep {
         let validation = validate(&mesh);
-        let mut degenerate: Vec<u32> = validation
-            .repeated_vertices
-            .iter()
-            .chain(&validation.zero_area)
-            .copied()
-            .collect();
-        degenerate.sort_unstable();
+        let degenerate = validation.degenerate();
         if settings.degenerate == Degenerate::Remove {
             let keep: Vec<bool> = (0..mesh.triangle_count() as u32)
                 .map(|t| degenerate.binary_search(&t).is_err())

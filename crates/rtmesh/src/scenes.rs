@@ -106,16 +106,12 @@ pub fn uv_sphere(rings: usize, segments: usize) -> TriMesh {
     )
 }
 
-/// An `n` × `n` grid of unit quads in the XY plane, turned 45° about Z, each quad split
-/// along the same diagonal.
-pub fn rotated_grid(n: usize) -> TriMesh {
-    let rotation = Quat::from_rotation_z(PI / 4.0);
+/// An `n` × `n` grid of unit quads in the XY plane, corner at the origin, axis-aligned,
+/// each quad split along the same diagonal.
+pub fn quad_grid(n: usize) -> TriMesh {
     let side = n + 1;
     let positions = (0..side * side)
-        .map(|i| {
-            let (x, y) = ((i % side) as f32, (i / side) as f32);
-            rotation * Vec3::new(x - n as f32 / 2.0, y - n as f32 / 2.0, 0.0)
-        })
+        .map(|i| Vec3::new((i % side) as f32, (i / side) as f32, 0.0))
         .collect();
     let mut triangles = Vec::with_capacity(2 * n * n);
     for y in 0..n {
@@ -127,6 +123,18 @@ pub fn rotated_grid(n: usize) -> TriMesh {
         }
     }
     TriMesh::new(positions, triangles)
+}
+
+/// An `n` × `n` grid of unit quads in the XY plane, centred, turned 45° about Z, each
+/// quad split along the same diagonal.
+pub fn rotated_grid(n: usize) -> TriMesh {
+    let rotation = Quat::from_rotation_z(PI / 4.0);
+    let centre = Vec3::new(n as f32 / 2.0, n as f32 / 2.0, 0.0);
+    let mut grid = quad_grid(n);
+    for p in &mut grid.positions {
+        *p = rotation * (*p - centre);
+    }
+    grid
 }
 
 /// A closed cylinder of radius 1 and height 4 along Y with `segments` sides: caps are

@@ -13,22 +13,13 @@ use rtmesh::trace::{NoCounters, RayKind, SceneAccel, Workload};
 use rtmesh::{Scene, TriMesh};
 use std::collections::BTreeSet;
 
-/// An `n` × `n` grid of unit quads in the plane z = `z`, axis-aligned: the clean base.
+/// An `n` × `n` axis-aligned grid of unit quads from `origin`: the clean base.
 fn grid(n: usize, origin: Vec3) -> TriMesh {
-    let side = n + 1;
-    let positions = (0..side * side)
-        .map(|i| origin + Vec3::new((i % side) as f32, (i / side) as f32, 0.0))
-        .collect();
-    let mut triangles = Vec::new();
-    for y in 0..n {
-        for x in 0..n {
-            let a = (y * side + x) as u32;
-            let (b, c, d) = (a + 1, a + 1 + side as u32, a + side as u32);
-            triangles.push([a, b, c]);
-            triangles.push([a, c, d]);
-        }
+    let mut grid = rtmesh::scenes::quad_grid(n);
+    for p in &mut grid.positions {
+        *p += origin;
     }
-    TriMesh::new(positions, triangles)
+    grid
 }
 
 /// `mesh` plus triangles with the given corners (each its own vertices).

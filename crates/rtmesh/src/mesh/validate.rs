@@ -21,6 +21,18 @@ pub struct Validation {
 }
 
 impl Validation {
+    /// Degenerate triangles (repeated vertices or zero area), ascending.
+    pub fn degenerate(&self) -> Vec<u32> {
+        let mut all: Vec<u32> = self
+            .repeated_vertices
+            .iter()
+            .chain(&self.zero_area)
+            .copied()
+            .collect();
+        all.sort_unstable();
+        all
+    }
+
     /// True when no problem was found.
     pub fn is_clean(&self) -> bool {
         self.out_of_range_indices.is_empty()
