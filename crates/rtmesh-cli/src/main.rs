@@ -102,6 +102,11 @@ enum Command {
         /// Aspect (longest edge² / twice the area) from which a triangle is elongated.
         #[arg(long, default_value_t = 25.0)]
         aspect: f32,
+        /// Another pose of the same mesh (same triangles, moved vertices); repeat for
+        /// more. Adds the rebuild-or-refit finding: SAH cost of the rest pose's BVH
+        /// refitted to each pose over a BVH rebuilt for it.
+        #[arg(long, value_name = "MESH")]
+        pose: Vec<String>,
         /// Print one JSON object instead of text.
         #[arg(long)]
         json: bool,
@@ -590,6 +595,7 @@ fn run(cli: Cli) -> Result<()> {
             mesh,
             empty_space,
             aspect,
+            pose,
             json,
         } => {
             let scene = load(&mesh)?;
@@ -598,7 +604,13 @@ fn run(cli: Cli) -> Result<()> {
                 aspect,
                 ..LintSettings::default()
             };
-            let report = rtmesh::lint::lint(&scene, &settings);
+            let mut report = rtmesh::lint::lint(&scene, &settings);
+            if !pose.is_empty() {
+                let poses = pose.iter().map(|p| load(p)).collect::<Result<Vec<_>>>()?;
+                let finding = rtmesh::lint::lint_deforming(&scene, &poses)
+                    .map_err(|e| anyhow::anyhow!("--pose: {e}"))?;
+                report.findings.push(finding);
+            }
             if json {
                 let mut value = serde_json::to_value(&report)?;
                 value["mesh"] = serde_json::json!(mesh);

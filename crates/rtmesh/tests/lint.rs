@@ -314,3 +314,45 @@ proptest! {
         check_split(&rtmesh::scenes::scan_blob(200 + 10 * n, seed));
     }
 }
+
+#[test]
+fn refit_or_rebuild_advice_follows_the_deformation() {
+    use rtmesh::lint::{lint_deforming, Severity};
+    // 1024 small triangles on a 32 × 32 lattice.
+    let cell = |k: usize| Vec3::new((k % 32) as f32, (k / 32) as f32, 0.0);
+    let piece = [
+        Vec3::ZERO,
+        Vec3::new(0.3, 0.0, 0.0),
+        Vec3::new(0.0, 0.3, 0.0),
+    ];
+    let lattice = |place: &dyn Fn(usize) -> usize| {
+        let positions = (0..1024)
+            .flat_map(|k| piece.map(|p| p + cell(place(k))))
+            .collect();
+        let triangles = (0..1024u32)
+            .map(|k| [3 * k, 3 * k + 1, 3 * k + 2])
+            .collect();
+        TriMesh::new(positions, triangles)
+    };
+    let rest = lattice(&|k| k);
+    let mut moved = rest.clone();
+    for p in &mut moved.positions {
+        *p += Vec3::new(3.0, -1.0, 2.0);
+    }
+    // Shuffled: every triangle jumps to another lattice cell (same topology).
+    let scrambled = lattice(&|k| (k * 389) % 1024);
+    let [rest, moved, scrambled] = [rest, moved, scrambled].map(Scene::from_mesh);
+    let calm = lint_deforming(&rest, std::slice::from_ref(&moved)).unwrap();
+    assert_eq!(
+        (calm.severity, calm.worst.clone()),
+        (Severity::Info, vec![])
+    );
+    let wild = lint_deforming(&rest, &[moved, scrambled]).unwrap();
+    assert_eq!(
+        (wild.severity, wild.worst.clone()),
+        (Severity::Warning, vec![1])
+    );
+    assert!(wild.figures[0].1 > 2.0, "{:?}", wild.figures);
+    let other = Scene::from_mesh(rtmesh::scenes::scan_blob(1_000, 2));
+    assert!(lint_deforming(&rest, &[other]).is_err());
+}
