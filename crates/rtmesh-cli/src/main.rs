@@ -114,7 +114,8 @@ enum Command {
     /// Fix what lint finds, write the result, and measure the gain with the tracer.
     ///
     /// Welds identical positions, removes degenerate triangles (or with --inactive
-    /// points them at a NaN vertex, keeping triangle ids), and with --split-elongated
+    /// points them at a NaN vertex, keeping triangle ids), with --split-scattered puts
+    /// each far-apart piece of a geometry in its own geometry, and with --split-elongated
     /// splits elongated triangles by conforming longest-edge bisection (neighbours
     /// across a split edge are split too: no T-junctions, watertight stays watertight)
     /// up to --budget times the input triangles. Then traces the same primary and
@@ -129,6 +130,10 @@ enum Command {
         /// Split elongated triangles.
         #[arg(long)]
         split_elongated: bool,
+        /// Split geometries whose pieces are far apart into one geometry (and
+        /// instance) per piece.
+        #[arg(long)]
+        split_scattered: bool,
         /// Make degenerate triangles inactive (NaN) instead of removing them.
         #[arg(long)]
         inactive: bool,
@@ -141,7 +146,8 @@ enum Command {
         /// Aspect from which a triangle is elongated.
         #[arg(long, default_value_t = 25.0)]
         aspect: f32,
-        /// Write, per geometry, the input triangle id of every output triangle (JSON).
+        /// Write the map back to the input (JSON: `input_geometry` per output geometry,
+        /// `input_triangle` per output geometry and triangle).
         #[arg(long, value_name = "FILE")]
         map: Option<PathBuf>,
         /// Image size of the before/after measurement (0x0 skips it).
@@ -624,6 +630,7 @@ fn run(cli: Cli) -> Result<()> {
             mesh,
             output,
             split_elongated,
+            split_scattered,
             inactive,
             budget,
             empty_space,
@@ -641,6 +648,7 @@ fn run(cli: Cli) -> Result<()> {
                     Degenerate::Remove
                 },
                 split_elongated,
+                split_scattered,
                 triangle_budget: budget,
                 lint: LintSettings {
                     empty_space,
@@ -671,6 +679,12 @@ fn run(cli: Cli) -> Result<()> {
                     report.triangles_in, report.triangles_out, report.merged_vertices,
                     report.removed_degenerate, report.made_inactive, report.split_edges,
                     if report.budget_reached { " (budget reached)" } else { "" }
+                );
+                println!(
+                    "  geometries   {} → {} ({} scattered geometries split into pieces)",
+                    scene.meshes.len(),
+                    report.geometries_out,
+                    report.split_geometries
                 );
                 println!(
                     "  elongated    {} → {} triangles, wasted box area {:.4} → {:.4}",

@@ -410,33 +410,68 @@ fn lint_alpha(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut 
     });
 }
 
-/// Connected pieces of a geometry and whether they leave its box mostly empty.
-fn lint_pieces(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut Vec<Finding>) {
-    let welded = weld_exact(mesh).mesh;
-    let (component, count) = connected_components(&EdgeAdjacency::build(&welded));
-    let mut boxes = vec![Aabb::EMPTY; count];
-    for (t, &c) in component.iter().enumerate() {
-        if (c as usize) < count {
-            let corners = welded.corners(t);
-            if corners.iter().all(|p| p.is_finite()) {
-                boxes[c as usize] = boxes[c as usize].union(Aabb::from_points(&corners));
+/// The connected pieces of a geometry (by edges, after welding identical positions):
+/// the piece of every triangle, each piece's box, and the pieces' summed box area over
+/// the geometry's box area (`coverage`: below ½ the pieces are far apart).
+#[derive(Clone, Debug)]
+pub struct Pieces {
+    /// Piece id per triangle (`u32::MAX` for triangles without an edge).
+    pub of_triangle: Vec<u32>,
+    /// Box per piece.
+    pub boxes: Vec<Aabb>,
+    /// Σ piece box half-areas / geometry box half-area.
+    pub coverage: f32,
+}
+
+impl Pieces {
+    /// The pieces of `mesh`.
+    pub fn of(mesh: &TriMesh) -> Self {
+        let welded = weld_exact(mesh).mesh;
+        let (of_triangle, count) = connected_components(&EdgeAdjacency::build(&welded));
+        let mut boxes = vec![Aabb::EMPTY; count];
+        for (t, &c) in of_triangle.iter().enumerate() {
+            if (c as usize) < count {
+                let corners = welded.corners(t);
+                if corners.iter().all(|p| p.is_finite()) {
+                    boxes[c as usize] = boxes[c as usize].union(Aabb::from_points(&corners));
+                }
             }
         }
+        let whole = boxes.iter().fold(Aabb::EMPTY, |b, &p| b.union(p));
+        let covered: f32 = boxes.iter().map(Aabb::half_area).sum();
+        Self {
+            of_triangle,
+            coverage: covered / whole.half_area().max(f32::MIN_POSITIVE),
+            boxes,
+        }
     }
-    let whole = boxes.iter().fold(Aabb::EMPTY, |b, &p| b.union(p));
-    let covered: f32 = boxes.iter().map(Aabb::half_area).sum();
-    let coverage = covered / whole.half_area().max(f32::MIN_POSITIVE);
-    if count > 1 && coverage < 0.5 {
-        let pieces: Vec<u32> = (0..count as u32).collect();
+
+    /// More than one piece, covering under half the geometry's box area.
+    pub fn scattered(&self) -> bool {
+        self.boxes.len() > 1 && self.coverage < 0.5
+    }
+}
+
+/// Connected pieces of a geometry and whether they leave its box mostly empty.
+fn lint_pieces(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut Vec<Finding>) {
+    let pieces = Pieces::of(mesh);
+    if pieces.scattered() {
+        let ids: Vec<u32> = (0..pieces.boxes.len() as u32).collect();
         findings.push(Finding {
             kind: "scattered-geometry",
             severity: Severity::Warning,
             geometry: g,
-            count,
-            worst: worst_by(pieces, settings.worst, |p| boxes[p as usize].half_area()),
-            figures: vec![("pieces_box_area_over_geometry_box_area", coverage as f64)],
+            count: pieces.boxes.len(),
+            worst: worst_by(ids, settings.worst, |p| {
+                pieces.boxes[p as usize].half_area()
+            }),
+            figures: vec![(
+                "pieces_box_area_over_geometry_box_area",
+                pieces.coverage as f64,
+            )],
             advice: "this geometry's pieces are far apart: its box is mostly empty space that \
-                     rays enter for nothing; split the pieces into separate instances",
+                     rays enter for nothing; split the pieces into separate instances \
+                     (rtmesh repair --split-scattered)",
         });
     }
 }

@@ -3,6 +3,11 @@
 //! triangle.
 //!
 //! - Weld vertices with identical positions (so that neighbours share edges).
+//! - Scattered geometries (pieces far apart, see [`crate::lint::Pieces`]): one
+//!   geometry per piece, placed by every instance of the original, kept only when
+//!   probe rays (64², primary and diffuse) need fewer box tests through the result:
+//!   a surface-area estimate said yes on Sponza, whose pieces then overlap in the
+//!   top level and double the primary rays' box tests.
 //! - Degenerate triangles (repeated indices, zero area): removed, or made inactive
 //!   (all three corners NaN, the DXR convention) so that triangle ids stay put.
 //! - Elongated triangles: conforming longest-edge bisection (Rivara, "New longest-edge
@@ -50,6 +55,9 @@ pub struct RepairSettings {
     pub lint: LintSettings,
     /// Most output triangles per input triangle when splitting.
     pub triangle_budget: f32,
+    /// Split geometries whose pieces are far apart into one geometry per piece, when
+    /// that lowers the box tests per ray of probe rays (64², primary and diffuse).
+    pub split_scattered: bool,
 }
 
 impl Default for RepairSettings {
@@ -60,6 +68,7 @@ impl Default for RepairSettings {
             split_elongated: false,
             lint: LintSettings::default(),
             triangle_budget: 2.0,
+            split_scattered: false,
         }
     }
 }
@@ -90,6 +99,10 @@ pub struct RepairReport {
     pub wasted_box_area_after: f64,
     /// True when the kept splits stopped at the triangle budget.
     pub budget_reached: bool,
+    /// Geometries split into one geometry per piece.
+    pub split_geometries: usize,
+    /// Output geometries.
+    pub geometries_out: usize,
 }
 
 /// A repaired geometry and, per output triangle, its input triangle id.
@@ -175,16 +188,28 @@ pub fn repair_mesh(mesh: &TriMesh, settings: &RepairSettings) -> (Repaired, Repa
     )
 }
 
-/// Repair every geometry of `scene` (instances and materials kept); returns the
-/// repaired scene, per geometry the map to input triangle ids, and the summed report.
-pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, Vec<Vec<u32>>, RepairReport) {
-    let mut out = scene.clone();
-    let mut maps = Vec::with_capacity(scene.meshes.len());
+/// Where every output triangle of a repaired scene came from.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct RepairMap {
+    /// Per output geometry, the input geometry it came from.
+    pub input_geometry: Vec<u32>,
+    /// Per output geometry, the input triangle (within the input geometry) of every
+    /// output triangle.
+    pub input_triangle: Vec<Vec<u32>>,
+}
+
+/// Repair every geometry of `scene` (materials kept); with `split_scattered`, the
+/// geometries whose pieces are far apart ([`crate::lint::Pieces::scattered`]) become
+/// one geometry per piece, each placed wherever the original was, if probe rays say
+/// that traces with fewer box tests. Returns the repaired scene, the map back to input
+/// geometries and triangles, and the summed report.
+pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, RepairReport) {
     let mut total = RepairReport::default();
-    for (g, mesh) in scene.meshes.iter().enumerate() {
+    // Per input geometry: the repaired geometry, and its pieces where it is scattered.
+    let mut variants: Vec<(Repaired, Option<Vec<Repaired>>)> =
+        Vec::with_capacity(scene.meshes.len());
+    for mesh in &scene.meshes {
         let (repaired, report) = repair_mesh(mesh, settings);
-        out.meshes[g] = repaired.mesh;
-        maps.push(repaired.input_triangle);
         total.triangles_in += report.triangles_in;
         total.triangles_out += report.triangles_out;
         total.merged_vertices += report.merged_vertices;
@@ -196,8 +221,124 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, Vec<Vec<u32>>
         total.wasted_box_area_before += report.wasted_box_area_before;
         total.wasted_box_area_after += report.wasted_box_area_after;
         total.budget_reached |= report.budget_reached;
+        let pieces = crate::lint::Pieces::of(&repaired.mesh);
+        let split = (settings.split_scattered && pieces.scattered())
+            .then(|| split_pieces(&repaired, &pieces.of_triangle, pieces.boxes.len()));
+        variants.push((repaired, split));
     }
-    (out, maps, total)
+    let (whole, whole_map) = assemble(scene, &variants, false);
+    let (out, map) = if variants.iter().any(|v| v.1.is_some()) {
+        // Keep the split only if the tracer says so, on probe rays.
+        let (split, split_map) = assemble(scene, &variants, true);
+        if probe_box_tests(&whole, &split) < probe_box_tests(&whole, &whole) {
+            total.split_geometries = variants.iter().filter(|v| v.1.is_some()).count();
+            (split, split_map)
+        } else {
+            (whole, whole_map)
+        }
+    } else {
+        (whole, whole_map)
+    };
+    total.geometries_out = out.meshes.len();
+    (out, map, total)
+}
+
+/// The scene of the repaired geometries (split into pieces where `split` and
+/// available), every input instance placing each of its geometry's outputs.
+fn assemble(
+    scene: &Scene,
+    variants: &[(Repaired, Option<Vec<Repaired>>)],
+    split: bool,
+) -> (Scene, RepairMap) {
+    let mut out = Scene {
+        meshes: Vec::new(),
+        instances: Vec::new(),
+        ..scene.clone()
+    };
+    let mut map = RepairMap::default();
+    let mut outputs: Vec<Vec<usize>> = Vec::with_capacity(variants.len());
+    for (g, (whole, pieces)) in variants.iter().enumerate() {
+        let parts = match pieces {
+            Some(pieces) if split => pieces.as_slice(),
+            _ => std::slice::from_ref(whole),
+        };
+        let mut ids = Vec::with_capacity(parts.len());
+        for part in parts {
+            ids.push(out.meshes.len());
+            out.meshes.push(part.mesh.clone());
+            map.input_geometry.push(g as u32);
+            map.input_triangle.push(part.input_triangle.clone());
+        }
+        outputs.push(ids);
+    }
+    for instance in &scene.instances {
+        for &mesh in &outputs[instance.mesh] {
+            out.instances.push(crate::mesh::Instance {
+                mesh,
+                transform: instance.transform,
+            });
+        }
+    }
+    (out, map)
+}
+
+/// Mean box tests per ray of 64 × 64 primary rays and their diffuse bounces (made for
+/// `reference`) traced through `candidate`.
+fn probe_box_tests(reference: &Scene, candidate: &Scene) -> f64 {
+    use crate::trace::workload::trace_closest;
+    use crate::trace::{Counters, RayCounters, RayKind, SceneAccel, Workload};
+    let settings = crate::bvh::BuildSettings::default();
+    let rays_for = SceneAccel::build(reference, &settings);
+    let accel = SceneAccel::build(candidate, &settings);
+    let mut total = RayCounters::default();
+    let mut rays = 0;
+    for kind in [RayKind::Primary, RayKind::Diffuse] {
+        let work = Workload::generate(kind, reference, &rays_for, 64, 64, 1);
+        for counters in trace_closest::<RayCounters>(&accel, &work.rays).1 {
+            total.merge(&counters);
+        }
+        rays += work.rays.len();
+    }
+    total.box_tests as f64 / rays.max(1) as f64
+}
+
+/// One mesh per piece (`piece[t]` of triangle `t`; triangles in no piece go with
+/// piece 0), vertices compacted, attributes and input ids kept.
+fn split_pieces(repaired: &Repaired, piece: &[u32], count: usize) -> Vec<Repaired> {
+    let mesh = &repaired.mesh;
+    let mut parts: Vec<Repaired> = (0..count)
+        .map(|_| Repaired {
+            mesh: TriMesh {
+                name: mesh.name.clone(),
+                ..TriMesh::default()
+            },
+            input_triangle: Vec::new(),
+        })
+        .collect();
+    let mut local = vec![(u32::MAX, u32::MAX); mesh.positions.len()];
+    for t in 0..mesh.triangle_count() {
+        let p = piece
+            .get(t)
+            .copied()
+            .filter(|&p| (p as usize) < count)
+            .unwrap_or(0);
+        let part = &mut parts[p as usize];
+        let triangle = mesh.triangles[t].map(|v| {
+            let Some(slot) = local.get_mut(v as usize) else {
+                return v; // out of range: kept as is, still skipped by the tracer
+            };
+            if slot.0 != p {
+                *slot = (p, part.mesh.positions.len() as u32);
+                part.mesh.positions.push(mesh.positions[v as usize]);
+            }
+            slot.1
+        });
+        part.mesh.triangles.push(triangle);
+        part.mesh.material_ids.push(mesh.material_ids[t]);
+        part.mesh.alpha_tested.push(mesh.alpha_tested[t]);
+        part.input_triangle.push(repaired.input_triangle[t]);
+    }
+    parts
 }
 
 /// Keep the triangles (and their attributes and input ids) where `keep` is true.

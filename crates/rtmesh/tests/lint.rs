@@ -356,3 +356,57 @@ fn refit_or_rebuild_advice_follows_the_deformation() {
     let other = Scene::from_mesh(rtmesh::scenes::scan_blob(1_000, 2));
     assert!(lint_deforming(&rest, &[other]).is_err());
 }
+
+#[test]
+fn scattered_pieces_become_instances_when_the_tracer_agrees() {
+    // Two small blobs far apart, in one geometry, placed twice.
+    let mut mesh = rtmesh::scenes::scan_blob(2_000, 4);
+    let far = rtmesh::scenes::scan_blob(2_000, 5);
+    mesh.append(
+        &far,
+        &Affine3A::from_translation(Vec3::new(6.0, 4.0, 0.0)),
+        0,
+    );
+    let mut scene = Scene::from_mesh(mesh);
+    scene.instances.push(rtmesh::Instance {
+        mesh: 0,
+        transform: Affine3A::from_translation(Vec3::new(0.0, 0.0, 8.0)),
+    });
+    let settings = RepairSettings {
+        split_scattered: true,
+        ..RepairSettings::default()
+    };
+    let (out, map, report) = rtmesh::repair::repair(&scene, &settings);
+    assert_eq!(
+        (
+            report.split_geometries,
+            out.meshes.len(),
+            out.instances.len()
+        ),
+        (1, 2, 4)
+    );
+    assert_eq!(map.input_geometry, vec![0, 0]);
+    // Every input triangle is in exactly one piece.
+    let mut all: Vec<u32> = map.input_triangle.concat();
+    all.sort_unstable();
+    assert_eq!(
+        all,
+        (0..scene.meshes[0].triangle_count() as u32).collect::<Vec<_>>()
+    );
+    // The same rays hit the same input triangles.
+    let before = SceneAccel::build(&scene, &BuildSettings::default());
+    let after = SceneAccel::build(&out, &BuildSettings::default());
+    let work = Workload::generate(RayKind::Primary, &scene, &before, 96, 96, 1);
+    let a = trace_closest::<NoCounters>(&before, &work.rays).0;
+    let b = trace_closest::<NoCounters>(&after, &work.rays).0;
+    let mut hits = 0;
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.is_hit(), y.is_hit());
+        if x.is_hit() {
+            hits += 1;
+            let input = map.input_triangle[y.geometry as usize][y.triangle as usize];
+            assert_eq!(x.triangle, input);
+        }
+    }
+    assert!(hits > 100);
+}
