@@ -114,7 +114,8 @@ enum Command {
     /// Fix what lint finds, write the result, and measure the gain with the tracer.
     ///
     /// Welds identical positions, removes degenerate triangles (or with --inactive
-    /// points them at a NaN vertex, keeping triangle ids), with --split-scattered puts
+    /// points them at a NaN vertex, keeping triangle ids), with --split-alpha separates
+    /// alpha-tested from opaque triangles, with --split-scattered puts
     /// each far-apart piece of a geometry in its own geometry, and with --split-elongated
     /// splits elongated triangles by conforming longest-edge bisection (neighbours
     /// across a split edge are split too: no T-junctions, watertight stays watertight)
@@ -134,6 +135,10 @@ enum Command {
         /// instance) per piece.
         #[arg(long)]
         split_scattered: bool,
+        /// Split alpha-tested triangles out of geometries that mix them with opaque
+        /// ones (the opaque geometry comes first and has no alpha-tested triangle).
+        #[arg(long)]
+        split_alpha: bool,
         /// Make degenerate triangles inactive (NaN) instead of removing them.
         #[arg(long)]
         inactive: bool,
@@ -631,6 +636,7 @@ fn run(cli: Cli) -> Result<()> {
             output,
             split_elongated,
             split_scattered,
+            split_alpha,
             inactive,
             budget,
             empty_space,
@@ -649,6 +655,7 @@ fn run(cli: Cli) -> Result<()> {
                 },
                 split_elongated,
                 split_scattered,
+                split_alpha,
                 triangle_budget: budget,
                 lint: LintSettings {
                     empty_space,
@@ -681,10 +688,11 @@ fn run(cli: Cli) -> Result<()> {
                     if report.budget_reached { " (budget reached)" } else { "" }
                 );
                 println!(
-                    "  geometries   {} → {} ({} scattered geometries split into pieces)",
+                    "  geometries   {} → {} ({} scattered geometries split into pieces, {} into opaque and alpha-tested)",
                     scene.meshes.len(),
                     report.geometries_out,
-                    report.split_geometries
+                    report.split_geometries,
+                    report.split_alpha_geometries
                 );
                 println!(
                     "  elongated    {} → {} triangles, wasted box area {:.4} → {:.4}",

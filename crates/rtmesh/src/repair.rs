@@ -3,6 +3,8 @@
 //! triangle.
 //!
 //! - Weld vertices with identical positions (so that neighbours share edges).
+//! - Alpha-tested triangles mixed with opaque ones: an opaque geometry and an
+//!   alpha-tested one, both placed by every instance of the original.
 //! - Scattered geometries (pieces far apart, see [`crate::lint::Pieces`]): one
 //!   geometry per piece, placed by every instance of the original, kept only when
 //!   probe rays (64², primary and diffuse) need fewer box tests through the result:
@@ -58,6 +60,9 @@ pub struct RepairSettings {
     /// Split geometries whose pieces are far apart into one geometry per piece, when
     /// that lowers the box tests per ray of probe rays (64², primary and diffuse).
     pub split_scattered: bool,
+    /// Split alpha-tested triangles out of geometries that mix them with opaque ones:
+    /// the opaque geometry (first) can then be flagged opaque and skip any-hit shaders.
+    pub split_alpha: bool,
 }
 
 impl Default for RepairSettings {
@@ -69,6 +74,7 @@ impl Default for RepairSettings {
             lint: LintSettings::default(),
             triangle_budget: 2.0,
             split_scattered: false,
+            split_alpha: false,
         }
     }
 }
@@ -101,6 +107,8 @@ pub struct RepairReport {
     pub budget_reached: bool,
     /// Geometries split into one geometry per piece.
     pub split_geometries: usize,
+    /// Geometries split into an opaque and an alpha-tested geometry.
+    pub split_alpha_geometries: usize,
     /// Output geometries.
     pub geometries_out: usize,
 }
@@ -206,7 +214,7 @@ pub struct RepairMap {
 pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, RepairReport) {
     let mut total = RepairReport::default();
     // Per input geometry: the repaired geometry, and its pieces where it is scattered.
-    let mut variants: Vec<(Repaired, Option<Vec<Repaired>>)> =
+    let mut variants: Vec<(Vec<Repaired>, Option<Vec<Repaired>>)> =
         Vec::with_capacity(scene.meshes.len());
     for mesh in &scene.meshes {
         let (repaired, report) = repair_mesh(mesh, settings);
@@ -221,10 +229,23 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
         total.wasted_box_area_before += report.wasted_box_area_before;
         total.wasted_box_area_after += report.wasted_box_area_after;
         total.budget_reached |= report.budget_reached;
+        let alpha = repaired.mesh.alpha_tested.iter().filter(|&&a| a).count();
+        if settings.split_alpha && alpha > 0 && alpha < repaired.mesh.triangle_count() {
+            // Opaque triangles first, then the alpha-tested ones.
+            let part: Vec<u32> = repaired
+                .mesh
+                .alpha_tested
+                .iter()
+                .map(|&a| a as u32)
+                .collect();
+            total.split_alpha_geometries += 1;
+            variants.push((split_pieces(&repaired, &part, 2), None));
+            continue;
+        }
         let pieces = crate::lint::Pieces::of(&repaired.mesh);
         let split = (settings.split_scattered && pieces.scattered())
             .then(|| split_pieces(&repaired, &pieces.of_triangle, pieces.boxes.len()));
-        variants.push((repaired, split));
+        variants.push((vec![repaired], split));
     }
     let (whole, whole_map) = assemble(scene, &variants, false);
     let (out, map) = if variants.iter().any(|v| v.1.is_some()) {
@@ -247,7 +268,7 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
 /// available), every input instance placing each of its geometry's outputs.
 fn assemble(
     scene: &Scene,
-    variants: &[(Repaired, Option<Vec<Repaired>>)],
+    variants: &[(Vec<Repaired>, Option<Vec<Repaired>>)],
     split: bool,
 ) -> (Scene, RepairMap) {
     let mut out = Scene {
@@ -260,7 +281,7 @@ fn assemble(
     for (g, (whole, pieces)) in variants.iter().enumerate() {
         let parts = match pieces {
             Some(pieces) if split => pieces.as_slice(),
-            _ => std::slice::from_ref(whole),
+            _ => whole.as_slice(),
         };
         let mut ids = Vec::with_capacity(parts.len());
         for part in parts {

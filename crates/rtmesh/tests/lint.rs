@@ -410,3 +410,23 @@ fn scattered_pieces_become_instances_when_the_tracer_agrees() {
     }
     assert!(hits > 100);
 }
+
+#[test]
+fn alpha_tested_triangles_are_split_out() {
+    let mut mesh = grid(4, Vec3::ZERO);
+    for t in [3, 8, 9, 20] {
+        mesh.alpha_tested[t] = true;
+    }
+    let scene = Scene::from_mesh(mesh);
+    let settings = RepairSettings {
+        split_alpha: true,
+        ..RepairSettings::default()
+    };
+    let (out, map, report) = rtmesh::repair::repair(&scene, &settings);
+    assert_eq!((report.split_alpha_geometries, out.meshes.len()), (1, 2));
+    assert!(out.meshes[0].alpha_tested.iter().all(|&a| !a));
+    assert!(out.meshes[1].alpha_tested.iter().all(|&a| a));
+    assert_eq!(map.input_triangle[1], vec![3, 8, 9, 20]);
+    assert_eq!(map.input_triangle[0].len(), 28);
+    assert!(!kinds(&out).contains("mixed-alpha"));
+}
