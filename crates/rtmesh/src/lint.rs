@@ -41,7 +41,8 @@ pub enum Severity {
 pub struct Finding {
     /// Short name: `elongated-triangles`, `fans`, `degenerate-triangles`,
     /// `inactive-triangles`, `out-of-range-indices`, `infinite-positions`,
-    /// `mixed-alpha`, `scattered-geometry`, `overlapping-geometries`.
+    /// `mixed-alpha`, `stacked-alpha`, `scattered-geometry`, `overlapping-geometries`,
+    /// `deforming-mesh`.
     pub kind: &'static str,
     /// How serious.
     pub severity: Severity,
@@ -218,6 +219,7 @@ pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
         lint_pieces(g, mesh, settings, &mut findings);
     }
     lint_overlaps(scene, settings, &mut findings);
+    lint_alpha_layers(scene, &mut findings);
     LintReport {
         triangles: scene.meshes.iter().map(TriMesh::triangle_count).sum(),
         geometries: scene.meshes.len(),
@@ -387,6 +389,100 @@ fn lint_broken(
             });
         }
     }
+}
+
+/// Alpha-tested layers along `width` × `height` primary rays from the default
+/// camera: per ray, how many alpha-tested triangles it crosses before its first opaque
+/// hit, each an any-hit shader call (alpha test) a tracer would run. Every triangle
+/// along the ray is found by an any-hit traversal that never stops; instances are
+/// visited one by one (a lint measure, not a fast path).
+pub fn alpha_layers(scene: &Scene, width: usize, height: usize) -> Vec<u32> {
+    use crate::bvh::BuildSettings;
+    use crate::trace::traverse::{any_hit, PortableNodeTest};
+    use crate::trace::{Camera, NoCounters, RayQuery, SceneAccel, Workload};
+    let accel = SceneAccel::build(scene, &BuildSettings::default());
+    let camera = Camera::default_for(&scene.bounds(), width, height);
+    let work = Workload::primary(&camera, width, height);
+    work.rays
+        .par_iter()
+        .map(|ray| {
+            let mut crossed: Vec<(f32, bool)> = Vec::new();
+            for instance in &scene.instances {
+                let to_object = instance.transform.inverse();
+                let local = crate::Ray {
+                    origin: to_object.transform_point3(ray.origin),
+                    direction: to_object.transform_vector3(ray.direction),
+                    ..*ray
+                };
+                let query = RayQuery::new(&local);
+                let alpha = &scene.meshes[instance.mesh].alpha_tested;
+                let bvh = &accel.blas[instance.mesh];
+                any_hit::<PortableNodeTest, _, _>(
+                    bvh,
+                    &query,
+                    ray.t_max,
+                    &mut NoCounters,
+                    |blocks, t_max, _| {
+                        for block in blocks {
+                            for lane in 0..block.count as usize {
+                                let triangle = block.triangle(lane);
+                                if let Some((t, _, _)) = triangle.intersect(&query, t_max) {
+                                    crossed
+                                        .push((t, alpha.get(triangle.id as usize) == Some(&true)));
+                                }
+                            }
+                        }
+                        false
+                    },
+                );
+            }
+            let opaque = crossed
+                .iter()
+                .filter(|c| !c.1)
+                .fold(f32::INFINITY, |t, c| t.min(c.0));
+            crossed.iter().filter(|c| c.1 && c.0 < opaque).count() as u32
+        })
+        .collect()
+}
+
+/// Stacked alpha-tested layers, measured by [`alpha_layers`] on 128 × 128 rays.
+fn lint_alpha_layers(scene: &Scene, findings: &mut Vec<Finding>) {
+    if !scene
+        .meshes
+        .iter()
+        .any(|m| m.alpha_tested.iter().any(|&a| a))
+    {
+        return;
+    }
+    let layers = alpha_layers(scene, 128, 128);
+    let meeting: Vec<u32> = layers.into_iter().filter(|&l| l > 0).collect();
+    if meeting.is_empty() {
+        return;
+    }
+    let mean = meeting.iter().map(|&l| l as f64).sum::<f64>() / meeting.len() as f64;
+    let most = meeting.iter().copied().max().unwrap_or(0);
+    if most < 2 {
+        return;
+    }
+    findings.push(Finding {
+        kind: "stacked-alpha",
+        severity: if mean >= 2.0 {
+            Severity::Warning
+        } else {
+            Severity::Info
+        },
+        geometry: 0,
+        count: meeting.iter().filter(|&&l| l >= 2).count(),
+        worst: vec![],
+        figures: vec![
+            ("mean_alpha_tests_per_ray_meeting_alpha", mean),
+            ("most_alpha_tests_on_one_ray", most as f64),
+            ("rays_meeting_alpha", meeting.len() as f64),
+        ],
+        advice: "rays cross several alpha-tested layers before an opaque hit, running an \
+                 any-hit shader for each: merge the layers, make the inner ones opaque, or \
+                 cut the alpha-tested area down to the visible shape",
+    });
 }
 
 /// Alpha-tested triangles mixed into a geometry with opaque ones.

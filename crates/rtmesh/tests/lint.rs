@@ -430,3 +430,23 @@ fn alpha_tested_triangles_are_split_out() {
     assert_eq!(map.input_triangle[0].len(), 28);
     assert!(!kinds(&out).contains("mixed-alpha"));
 }
+
+#[test]
+fn stacked_alpha_layers_are_counted() {
+    // An opaque floor under three alpha-tested sheets: camera rays cross all three.
+    let floor = grid(8, Vec3::ZERO);
+    let mut scene = Scene::from_mesh(floor);
+    for z in [1.0, 2.0, 3.0] {
+        let mut sheet = grid(8, Vec3::new(0.0, 0.0, z));
+        sheet.alpha_tested = vec![true; sheet.triangle_count()];
+        scene.push_mesh(sheet, Affine3A::IDENTITY);
+    }
+    let layers = rtmesh::lint::alpha_layers(&scene, 32, 32);
+    assert_eq!(layers.iter().copied().max(), Some(3));
+    let found = finding(&scene, "stacked-alpha");
+    assert_eq!(found.severity, rtmesh::lint::Severity::Warning);
+    // One alpha layer is not a stack.
+    let mut single = grid(4, Vec3::ZERO);
+    single.alpha_tested[0] = true;
+    assert!(!kinds(&Scene::from_mesh(single)).contains("stacked-alpha"));
+}
