@@ -139,6 +139,10 @@ enum Command {
         /// ones (the opaque geometry comes first and has no alpha-tested triangle).
         #[arg(long)]
         split_alpha: bool,
+        /// Merge geometries whose boxes overlap by half or more (each placed once)
+        /// into one, when probe rays need fewer box tests that way.
+        #[arg(long)]
+        merge_overlapping: bool,
         /// Make degenerate triangles inactive (NaN) instead of removing them.
         #[arg(long)]
         inactive: bool,
@@ -151,8 +155,8 @@ enum Command {
         /// Aspect from which a triangle is elongated.
         #[arg(long, default_value_t = 25.0)]
         aspect: f32,
-        /// Write the map back to the input (JSON: `input_geometry` per output geometry,
-        /// `input_triangle` per output geometry and triangle).
+        /// Write the map back to the input (JSON: `input_geometry` and `input_triangle`,
+        /// each per output geometry and triangle).
         #[arg(long, value_name = "FILE")]
         map: Option<PathBuf>,
         /// Image size of the before/after measurement (0x0 skips it).
@@ -637,6 +641,7 @@ fn run(cli: Cli) -> Result<()> {
             split_elongated,
             split_scattered,
             split_alpha,
+            merge_overlapping,
             inactive,
             budget,
             empty_space,
@@ -656,6 +661,7 @@ fn run(cli: Cli) -> Result<()> {
                 split_elongated,
                 split_scattered,
                 split_alpha,
+                merge_overlapping,
                 triangle_budget: budget,
                 lint: LintSettings {
                     empty_space,
@@ -694,6 +700,12 @@ fn run(cli: Cli) -> Result<()> {
                     report.split_geometries,
                     report.split_alpha_geometries
                 );
+                if report.merged_groups > 0 {
+                    println!(
+                        "  merged       {} groups of overlapping geometries",
+                        report.merged_groups
+                    );
+                }
                 println!(
                     "  elongated    {} → {} triangles, wasted box area {:.4} → {:.4}",
                     report.elongated_before,

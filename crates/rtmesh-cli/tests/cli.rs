@@ -179,7 +179,7 @@ fn lint_and_repair_report_and_fix_the_fan_cylinder() {
     assert!(triangles_out > repair["triangles_in"].as_u64().unwrap());
     let map: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&map).unwrap()).unwrap();
-    assert_eq!(map["input_geometry"], serde_json::json!([0]));
+    assert_eq!(map["input_geometry"].as_array().unwrap().len(), 1);
     assert_eq!(
         map["input_triangle"][0].as_array().unwrap().len() as u64,
         triangles_out

@@ -5,6 +5,9 @@
 //! - Weld vertices with identical positions (so that neighbours share edges).
 //! - Alpha-tested triangles mixed with opaque ones: an opaque geometry and an
 //!   alpha-tested one, both placed by every instance of the original.
+//! - Overlapping geometries (boxes overlapping by half or more, each placed once):
+//!   merged into one geometry, transforms baked in, kept only when probe rays need
+//!   fewer box tests.
 //! - Scattered geometries (pieces far apart, see [`crate::lint::Pieces`]): one
 //!   geometry per piece, placed by every instance of the original, kept only when
 //!   probe rays (64², primary and diffuse) need fewer box tests through the result:
@@ -63,6 +66,9 @@ pub struct RepairSettings {
     /// Split alpha-tested triangles out of geometries that mix them with opaque ones:
     /// the opaque geometry (first) can then be flagged opaque and skip any-hit shaders.
     pub split_alpha: bool,
+    /// Merge geometries whose boxes overlap by half or more (each placed once) into
+    /// one, when that lowers the box tests per ray of probe rays.
+    pub merge_overlapping: bool,
 }
 
 impl Default for RepairSettings {
@@ -75,6 +81,7 @@ impl Default for RepairSettings {
             triangle_budget: 2.0,
             split_scattered: false,
             split_alpha: false,
+            merge_overlapping: false,
         }
     }
 }
@@ -109,6 +116,8 @@ pub struct RepairReport {
     pub split_geometries: usize,
     /// Geometries split into an opaque and an alpha-tested geometry.
     pub split_alpha_geometries: usize,
+    /// Groups of overlapping geometries merged into one.
+    pub merged_groups: usize,
     /// Output geometries.
     pub geometries_out: usize,
 }
@@ -199,8 +208,9 @@ pub fn repair_mesh(mesh: &TriMesh, settings: &RepairSettings) -> (Repaired, Repa
 /// Where every output triangle of a repaired scene came from.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct RepairMap {
-    /// Per output geometry, the input geometry it came from.
-    pub input_geometry: Vec<u32>,
+    /// Per output geometry, the input geometry of every output triangle (one value
+    /// unless geometries were merged).
+    pub input_geometry: Vec<Vec<u32>>,
     /// Per output geometry, the input triangle (within the input geometry) of every
     /// output triangle.
     pub input_triangle: Vec<Vec<u32>>,
@@ -260,8 +270,122 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
     } else {
         (whole, whole_map)
     };
+    let (out, map) = if settings.merge_overlapping {
+        match merge_overlapping(&out, &map) {
+            Some((merged, merged_map, groups))
+                if probe_box_tests(scene, &merged) < probe_box_tests(scene, &out) =>
+            {
+                total.merged_groups = groups;
+                (merged, merged_map)
+            }
+            _ => (out, map),
+        }
+    } else {
+        (out, map)
+    };
     total.geometries_out = out.meshes.len();
     (out, map, total)
+}
+
+/// Merge the geometries of instances whose boxes overlap by half or more (as lint's
+/// `overlapping-geometries` finds them), where each such geometry is placed once:
+/// one geometry per group, transforms baked in, placed with the identity. Returns
+/// the merged scene and map and the number of groups, or `None` when nothing merges.
+fn merge_overlapping(scene: &Scene, map: &RepairMap) -> Option<(Scene, RepairMap, usize)> {
+    use crate::geom::Aabb;
+    let mut placements = vec![0usize; scene.meshes.len()];
+    for instance in &scene.instances {
+        placements[instance.mesh] += 1;
+    }
+    let boxes: Vec<Aabb> = scene
+        .instances
+        .iter()
+        .map(|i| scene.meshes[i.mesh].bounds().transformed(&i.transform))
+        .collect();
+    let n = boxes.len();
+    if !(2..=2_000).contains(&n) {
+        return None;
+    }
+    // Union-find over instances.
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let single = |i: usize| placements[scene.instances[i].mesh] == 1;
+    for a in 0..n {
+        for b in a + 1..n {
+            if !(single(a) && single(b)) {
+                continue;
+            }
+            let shared = boxes[a].intersection(boxes[b]);
+            let smaller = boxes[a].half_area().min(boxes[b].half_area());
+            if !shared.is_empty() && shared.half_area() >= 0.5 * smaller.max(f32::MIN_POSITIVE) {
+                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                parent[ra] = rb;
+            }
+        }
+    }
+    let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        members[r].push(i);
+    }
+    let groups: Vec<&Vec<usize>> = members.iter().filter(|m| m.len() > 1).collect();
+    if groups.is_empty() {
+        return None;
+    }
+    let merged_instance: Vec<bool> = (0..n)
+        .map(|i| members[root(&mut parent, i)].len() > 1)
+        .collect();
+    let mut out = Scene {
+        meshes: Vec::new(),
+        instances: Vec::new(),
+        ..scene.clone()
+    };
+    let mut out_map = RepairMap::default();
+    // Geometries not merged keep their instances.
+    let mut new_index = vec![usize::MAX; scene.meshes.len()];
+    for (i, instance) in scene.instances.iter().enumerate() {
+        if merged_instance[i] {
+            continue;
+        }
+        if new_index[instance.mesh] == usize::MAX {
+            new_index[instance.mesh] = out.meshes.len();
+            out.meshes.push(scene.meshes[instance.mesh].clone());
+            out_map
+                .input_geometry
+                .push(map.input_geometry[instance.mesh].clone());
+            out_map
+                .input_triangle
+                .push(map.input_triangle[instance.mesh].clone());
+        }
+        out.instances.push(crate::mesh::Instance {
+            mesh: new_index[instance.mesh],
+            transform: instance.transform,
+        });
+    }
+    for group in &groups {
+        let mut mesh = TriMesh::default();
+        let (mut geometry, mut triangle) = (Vec::new(), Vec::new());
+        for &i in group.iter() {
+            let instance = &scene.instances[i];
+            mesh.append(&scene.meshes[instance.mesh], &instance.transform, 0);
+            geometry.extend_from_slice(&map.input_geometry[instance.mesh]);
+            triangle.extend_from_slice(&map.input_triangle[instance.mesh]);
+        }
+        out.instances.push(crate::mesh::Instance {
+            mesh: out.meshes.len(),
+            transform: glam::Affine3A::IDENTITY,
+        });
+        out.meshes.push(mesh);
+        out_map.input_geometry.push(geometry);
+        out_map.input_triangle.push(triangle);
+    }
+    Some((out, out_map, groups.len()))
 }
 
 /// The scene of the repaired geometries (split into pieces where `split` and
@@ -287,7 +411,8 @@ fn assemble(
         for part in parts {
             ids.push(out.meshes.len());
             out.meshes.push(part.mesh.clone());
-            map.input_geometry.push(g as u32);
+            map.input_geometry
+                .push(vec![g as u32; part.input_triangle.len()]);
             map.input_triangle.push(part.input_triangle.clone());
         }
         outputs.push(ids);
