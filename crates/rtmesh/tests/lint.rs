@@ -393,22 +393,7 @@ fn scattered_pieces_become_instances_when_the_tracer_agrees() {
         all,
         (0..scene.meshes[0].triangle_count() as u32).collect::<Vec<_>>()
     );
-    // The same rays hit the same input triangles.
-    let before = SceneAccel::build(&scene, &BuildSettings::default());
-    let after = SceneAccel::build(&out, &BuildSettings::default());
-    let work = Workload::generate(RayKind::Primary, &scene, &before, 96, 96, 1);
-    let a = trace_closest::<NoCounters>(&before, &work.rays).0;
-    let b = trace_closest::<NoCounters>(&after, &work.rays).0;
-    let mut hits = 0;
-    for (x, y) in a.iter().zip(&b) {
-        assert_eq!(x.is_hit(), y.is_hit());
-        if x.is_hit() {
-            hits += 1;
-            let input = map.input_triangle[y.geometry as usize][y.triangle as usize];
-            assert_eq!(x.triangle, input);
-        }
-    }
-    assert!(hits > 100);
+    assert_same_input_hits(&scene, &out, &map);
 }
 
 #[test]
@@ -479,21 +464,27 @@ fn interleaved_geometries_are_merged_when_the_tracer_agrees() {
         (report.merged_groups, out.meshes.len(), out.instances.len()),
         (1, 1, 1)
     );
-    let (geometry, triangle) = (&map.input_geometry[0], &map.input_triangle[0]);
-    assert_eq!(geometry.len(), out.meshes[0].triangle_count());
-    let before = SceneAccel::build(&scene, &BuildSettings::default());
-    let after = SceneAccel::build(&out, &BuildSettings::default());
-    let work = Workload::generate(RayKind::Primary, &scene, &before, 96, 96, 1);
-    let a = trace_closest::<NoCounters>(&before, &work.rays).0;
-    let b = trace_closest::<NoCounters>(&after, &work.rays).0;
+    assert_eq!(map.input_geometry[0].len(), out.meshes[0].triangle_count());
+    assert_same_input_hits(&scene, &out, &map);
+}
+
+/// Camera rays through `before` and the repaired `after` hit the same input
+/// (geometry, triangle), by `map`.
+fn assert_same_input_hits(before: &Scene, after: &Scene, map: &rtmesh::repair::RepairMap) {
+    let accel_before = SceneAccel::build(before, &BuildSettings::default());
+    let accel_after = SceneAccel::build(after, &BuildSettings::default());
+    let work = Workload::generate(RayKind::Primary, before, &accel_before, 96, 96, 1);
+    let a = trace_closest::<NoCounters>(&accel_before, &work.rays).0;
+    let b = trace_closest::<NoCounters>(&accel_after, &work.rays).0;
     let mut hits = 0;
     for (x, y) in a.iter().zip(&b) {
         assert_eq!(x.is_hit(), y.is_hit());
         if x.is_hit() {
             hits += 1;
-            let t = y.triangle as usize;
-            assert_eq!((x.geometry, x.triangle), (geometry[t], triangle[t]));
+            let (g, t) = (y.geometry as usize, y.triangle as usize);
+            let input = (map.input_geometry[g][t], map.input_triangle[g][t]);
+            assert_eq!((x.geometry, x.triangle), input);
         }
     }
-    assert!(hits > 100);
+    assert!(hits > 100, "{hits} hits");
 }
