@@ -242,10 +242,13 @@ enum Command {
         #[command(subcommand)]
         what: BenchCommand,
     },
-    /// Run rtmesh on the built-in scenes: their info, BVH and traced speed.
+    /// Run rtmesh on the built-in scenes: info, BVH, traced speed, packets, pairing,
+    /// lint and repair.
     ///
-    /// For now the demo inspects and traces each built-in scene at 512x512; the
-    /// optimizers (pairing, strips, clusters, repair) will join it as they land.
+    /// Per built-in scene: mesh info, the BVH, primary and diffuse rays at 512x512,
+    /// 8x8 packets against single rays, the share of triangles SAH pairing pairs, lint's
+    /// findings, and repair (split elongated and scattered, merge overlapping) with box
+    /// tests per ray before and after at 256x256.
     Demo {
         /// Print one JSON object instead of text.
         #[arg(long)]
@@ -509,6 +512,14 @@ fn print_info(name: &str, info: &MeshInfo) {
 }
 
 fn main() {
+    // Rust ignores SIGPIPE, so `rtmesh lint MESH | head` would panic on the closed pipe;
+    // restore the default (exit quietly) as command-line tools expect.
+    #[cfg(unix)]
+    // SAFETY: called first thing in main, before any other thread exists; SIG_DFL is a
+    // valid disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     if let Err(error) = run(cli) {
         eprintln!("error: {error:#}");
@@ -932,6 +943,24 @@ fn run(cli: Cli) -> Result<()> {
                         (kind, workload::measure(&accel, &work, 3))
                     })
                     .collect();
+                // Packets of 8x8 camera rays on the same primary rays.
+                let primary = &runs[0].1;
+                let (grouped, starts) =
+                    Workload::generate(RayKind::Primary, &scene, &accel, 512, 512, 1).grouped(8);
+                let packets = IntersectorKind::MollerPacket
+                    .dispatch(MeasurePackets(&accel, &grouped, &starts, 3));
+                let lint = rtmesh::lint::lint(&scene, &LintSettings::default());
+                let (_, pairings) = rtmesh::pair::weld_and_pair(&scene, PairMethod::Sah);
+                let paired: usize = pairings.iter().map(Pairing::paired_triangles).sum();
+                let pair_ratio = paired as f64 / scene.instanced_triangle_count().max(1) as f64;
+                let settings = RepairSettings {
+                    split_elongated: true,
+                    split_scattered: true,
+                    merge_overlapping: true,
+                    ..RepairSettings::default()
+                };
+                let (repaired, _, repair) = rtmesh::repair::repair(&scene, &settings);
+                let measured = measure_before_after(&scene, &repaired, (256, 256), 1);
                 if !json {
                     print_info(&format!("builtin:{name}"), &info);
                     let bvh = accel.stats();
@@ -945,6 +974,43 @@ fn run(cli: Cli) -> Result<()> {
                             kind.name(), run.mrays_per_s, run.box_tests_per_ray, run.tri_tests_per_ray, run.hits, run.rays
                         );
                     }
+                    println!(
+                        "  8x8 packets        {:>10.2} Mrays/s ({:.2}x single rays), {:.1} box tests per ray",
+                        packets.mrays_per_s,
+                        packets.mrays_per_s / primary.mrays_per_s.max(1e-9),
+                        packets.box_tests_per_ray
+                    );
+                    println!(
+                        "  sah pairing        {:>9.2}% of triangles paired",
+                        100.0 * pair_ratio
+                    );
+                    let found: Vec<String> = lint
+                        .findings
+                        .iter()
+                        .map(|f| format!("{} ({})", f.kind, f.count))
+                        .collect();
+                    println!(
+                        "  lint               {}",
+                        if found.is_empty() {
+                            "no findings".to_owned()
+                        } else {
+                            found.join(", ")
+                        }
+                    );
+                    println!(
+                        "  repair             {} → {} triangles, {} → {} geometries{}",
+                        repair.triangles_in,
+                        repair.triangles_out,
+                        scene.meshes.len(),
+                        repair.geometries_out,
+                        measured
+                            .iter()
+                            .map(|m| format!(
+                                ", {} box/ray {:.1} → {:.1}",
+                                m.workload, m.box_before, m.box_after
+                            ))
+                            .collect::<String>()
+                    );
                 }
                 let traces: serde_json::Map<String, serde_json::Value> = runs
                     .iter()
@@ -955,12 +1021,16 @@ fn run(cli: Cli) -> Result<()> {
                         )
                     })
                     .collect();
-                report.push(serde_json::json!({"scene": name, "info": info, "bvh": accel.stats(), "trace": traces}));
+                report.push(serde_json::json!({
+                    "scene": name, "info": info, "bvh": accel.stats(), "trace": traces,
+                    "packets_8x8": packets, "sah_pair_ratio": pair_ratio, "lint": lint,
+                    "repair": {"report": repair, "trace": measured},
+                }));
             }
             if json {
                 print_json(&report)
             } else {
-                println!("\nnext: rtmesh render builtin:blob -o blob.png --heatmap boxes; rtmesh bench trace MESH...");
+                println!("\nnext: rtmesh render builtin:blob -o blob.png --heatmap boxes; rtmesh lint MESH; rtmesh repair MESH --split-elongated; rtmesh bench packets MESH...");
                 Ok(())
             }
         }
