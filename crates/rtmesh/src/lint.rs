@@ -199,13 +199,7 @@ pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
         let validation = validate(mesh);
         let shapes: Vec<Option<TriangleShape>> = (0..mesh.triangle_count())
             .into_par_iter()
-            .map(|t| {
-                let n = mesh.positions.len();
-                let valid = mesh.triangles[t]
-                    .iter()
-                    .all(|&v| (v as usize) < n && mesh.positions[v as usize].is_finite());
-                valid.then(|| TriangleShape::of(mesh.corners(t)))
-            })
+            .map(|t| mesh.finite_corners(t).map(TriangleShape::of))
             .collect();
         for shape in shapes.iter().flatten() {
             empty_all.push(shape.empty_space);
@@ -526,11 +520,8 @@ impl Pieces {
         let (of_triangle, count) = connected_components(&EdgeAdjacency::build(&welded));
         let mut boxes = vec![Aabb::EMPTY; count];
         for (t, &c) in of_triangle.iter().enumerate() {
-            if (c as usize) < count {
-                let corners = welded.corners(t);
-                if corners.iter().all(|p| p.is_finite()) {
-                    boxes[c as usize] = boxes[c as usize].union(Aabb::from_points(&corners));
-                }
+            if let (true, Some(corners)) = ((c as usize) < count, welded.finite_corners(t)) {
+                boxes[c as usize] = boxes[c as usize].union(Aabb::from_points(&corners));
             }
         }
         let whole = boxes.iter().fold(Aabb::EMPTY, |b, &p| b.union(p));

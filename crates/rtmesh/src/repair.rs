@@ -134,10 +134,7 @@ pub struct Repaired {
 /// The shape of triangle `t`, or `None` when an index is out of range or a corner
 /// is not finite.
 fn shape(mesh: &TriMesh, t: usize) -> Option<TriangleShape> {
-    let n = mesh.positions.len();
-    (mesh.triangles[t].iter().all(|&v| (v as usize) < n)
-        && mesh.corners(t).iter().all(|p| p.is_finite()))
-    .then(|| TriangleShape::of(mesh.corners(t)))
+    mesh.finite_corners(t).map(TriangleShape::of)
 }
 
 /// Elongated triangles and the wasted box area (Σ half-area × empty space).

@@ -488,3 +488,58 @@ fn assert_same_input_hits(before: &Scene, after: &Scene, map: &rtmesh::repair::R
     }
     assert!(hits > 100, "{hits} hits");
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// Broken input (out-of-range indices, NaN and infinite corners, repeated indices,
+    /// duplicate and degenerate triangles, several geometries) never makes lint or
+    /// any repair panic, and every output triangle maps to an input triangle.
+    #[test]
+    fn lint_and_repair_survive_broken_meshes(seed in 0u64..10_000, geometries in 1usize..4) {
+        let mut rng = rtmesh::random::SplitMix64::new(seed);
+        let mut scene = Scene::default();
+        for g in 0..geometries {
+            let vertices = 3 + (rng.next_u64() % 30) as usize;
+            let positions: Vec<Vec3> = (0..vertices)
+                .map(|_| match rng.next_u64() % 20 {
+                    0 => Vec3::NAN,
+                    1 => Vec3::new(f32::INFINITY, 0.0, 0.0),
+                    2 => Vec3::ZERO,
+                    _ => Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0,
+                })
+                .collect();
+            let triangles: Vec<[u32; 3]> = (0..1 + rng.next_u64() % 40)
+                .map(|_| {
+                    [0; 3].map(|_| (rng.next_u64() % (vertices as u64 + 2)) as u32)
+                })
+                .collect();
+            let mut mesh = TriMesh::new(positions, triangles);
+            for a in &mut mesh.alpha_tested {
+                *a = rng.next_u64() % 3 == 0;
+            }
+            let transform = Affine3A::from_translation(Vec3::splat(g as f32));
+            scene.push_mesh(mesh, transform);
+        }
+        let report = lint(&scene, &LintSettings::default());
+        prop_assert_eq!(report.geometries, geometries);
+        for degenerate in [Degenerate::Remove, Degenerate::Inactive, Degenerate::Keep] {
+            let settings = RepairSettings {
+                degenerate,
+                split_elongated: true,
+                split_scattered: true,
+                split_alpha: true,
+                merge_overlapping: true,
+                ..RepairSettings::default()
+            };
+            let (out, map, _) = rtmesh::repair::repair(&scene, &settings);
+            prop_assert_eq!(map.input_triangle.len(), out.meshes.len());
+            for (g, mesh) in out.meshes.iter().enumerate() {
+                prop_assert_eq!(map.input_triangle[g].len(), mesh.triangle_count());
+                for (&input_g, &input_t) in map.input_geometry[g].iter().zip(&map.input_triangle[g]) {
+                    prop_assert!((input_t as usize) < scene.meshes[input_g as usize].triangle_count());
+                }
+            }
+        }
+    }
+}

@@ -73,6 +73,18 @@ impl TriMesh {
         ]
     }
 
+    /// The corners of triangle `t` when its indices are in range and its corners
+    /// finite (what the tracer keeps); `None` otherwise.
+    #[inline]
+    pub fn finite_corners(&self, t: usize) -> Option<[Vec3; 3]> {
+        let n = self.positions.len();
+        if self.triangles[t].iter().any(|&v| v as usize >= n) {
+            return None;
+        }
+        let corners = self.corners(t);
+        corners.iter().all(|p| p.is_finite()).then_some(corners)
+    }
+
     /// Box of all vertices that triangles use, skipping non-finite positions.
     pub fn bounds(&self) -> Aabb {
         let mut used = vec![false; self.positions.len()];

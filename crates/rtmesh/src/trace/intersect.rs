@@ -701,12 +701,7 @@ impl TriangleSoa {
     /// The valid triangles of `mesh` (in-range indices, finite corners).
     pub fn from_mesh(mesh: &TriMesh) -> Self {
         let valid: Vec<u32> = (0..mesh.triangle_count())
-            .filter(|&t| {
-                let n = mesh.positions.len();
-                mesh.triangles[t]
-                    .iter()
-                    .all(|&v| (v as usize) < n && mesh.positions[v as usize].is_finite())
-            })
+            .filter(|&t| mesh.finite_corners(t).is_some())
             .map(|t| t as u32)
             .collect();
         let padded = valid.len().div_ceil(MAX_LANES) * MAX_LANES;
