@@ -516,7 +516,7 @@ proptest! {
                 .collect();
             let mut mesh = TriMesh::new(positions, triangles);
             for a in &mut mesh.alpha_tested {
-                *a = rng.next_u64() % 3 == 0;
+                *a = rng.next_u64().is_multiple_of(3);
             }
             let transform = Affine3A::from_translation(Vec3::splat(g as f32));
             scene.push_mesh(mesh, transform);
