@@ -155,3 +155,43 @@ fn shadow_packets_match_single_rays() {
         eprintln!("{name}: {occluded_rays} occluded shadow rays");
     }
 }
+
+/// Packets holding NaN, zero, infinite and axis-parallel directions give exactly what
+/// the rays give alone (misses for the broken ones), with no panic.
+#[test]
+fn awkward_rays_in_packets_match_single_rays() {
+    let scene = Scene::from_mesh(rtmesh::scenes::scan_blob(5_000, 6));
+    let accel = SceneAccel::build(&scene, &BuildSettings::default());
+    let eye = scene.bounds().center() + Vec3::new(0.0, 0.0, 3.0) * scene.bounds().diagonal_length();
+    let directions = [
+        Vec3::NAN,
+        Vec3::ZERO,
+        Vec3::new(f32::INFINITY, 0.0, -1.0),
+        -Vec3::Z,
+        Vec3::new(0.0, 1e-30, -1.0),
+        Vec3::new(0.01, -0.01, -1.0),
+        Vec3::new(-0.01, 0.01, -1.0),
+        Vec3::new(0.0, 0.0, -1e-20),
+    ];
+    let rays: Vec<Ray> = directions.iter().map(|&d| Ray::new(eye, d)).collect();
+    let mut buffer = PacketBuffer::default();
+    let mut hits = vec![rtmesh::trace::Hit::MISS; rays.len()];
+    let mut counters = vec![NoCounters; rays.len()];
+    accel.intersect_packet::<MollerPacket, _>(&mut buffer, &rays, &mut hits, &mut counters);
+    let mut occluded = vec![false; rays.len()];
+    accel.occluded_packet::<MollerPacket, _>(&mut buffer, &rays, &mut occluded, &mut counters);
+    for (i, ray) in rays.iter().enumerate() {
+        assert_eq!(
+            hits[i],
+            accel.intersect_by::<MollerPacket, _>(ray, &mut NoCounters),
+            "ray {i}"
+        );
+        assert_eq!(
+            occluded[i],
+            accel.occluded_by::<MollerPacket, _>(ray, &mut NoCounters),
+            "ray {i}"
+        );
+    }
+    assert!(!hits[0].is_hit() && !hits[1].is_hit());
+    assert!(hits[3].is_hit());
+}
