@@ -566,17 +566,46 @@ fn lint_pieces(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut
 /// Pairs of geometries whose boxes overlap heavily: merged, they would share one BVH
 /// and rays would not traverse both.
 fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Finding>) {
+    let pairs = overlapping_instances(scene);
+    for a in 0..scene.instances.len() {
+        let mine: Vec<&(usize, usize, f32)> = pairs.iter().filter(|p| p.0 == a).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        findings.push(Finding {
+            kind: "overlapping-geometries",
+            severity: Severity::Info,
+            geometry: scene.instances[a].mesh,
+            count: mine.len(),
+            worst: mine
+                .iter()
+                .map(|p| p.1 as u32)
+                .take(settings.worst)
+                .collect(),
+            figures: vec![(
+                "largest_box_overlap",
+                mine.iter().map(|p| p.2).fold(0.0, f32::max) as f64,
+            )],
+            advice: "rays through the overlap traverse several BVHs: merge geometries \
+                     whose boxes overlap this much into one",
+        });
+    }
+}
+
+/// Pairs of instances `(a, b, overlap)`, `a < b`, whose world boxes overlap by half or
+/// more: `overlap` = half-area of the boxes' intersection over the smaller box's.
+/// Empty for fewer than 2 or more than 2,000 instances (the test is quadratic).
+pub fn overlapping_instances(scene: &Scene) -> Vec<(usize, usize, f32)> {
     let boxes: Vec<Aabb> = scene
         .instances
         .iter()
         .map(|i| scene.meshes[i.mesh].bounds().transformed(&i.transform))
         .collect();
-    if boxes.len() < 2 || boxes.len() > 2_000 {
-        return;
+    if !(2..=2_000).contains(&boxes.len()) {
+        return Vec::new();
     }
+    let mut pairs = Vec::new();
     for a in 0..boxes.len() {
-        let mut partners = Vec::new();
-        let mut most = 0.0f32;
         for b in a + 1..boxes.len() {
             let shared = boxes[a].intersection(boxes[b]);
             if shared.is_empty() {
@@ -585,23 +614,11 @@ fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Find
             let smaller = boxes[a].half_area().min(boxes[b].half_area());
             let overlap = shared.half_area() / smaller.max(f32::MIN_POSITIVE);
             if overlap >= 0.5 {
-                partners.push(b as u32);
-                most = most.max(overlap);
+                pairs.push((a, b, overlap));
             }
         }
-        if !partners.is_empty() {
-            findings.push(Finding {
-                kind: "overlapping-geometries",
-                severity: Severity::Info,
-                geometry: scene.instances[a].mesh,
-                count: partners.len(),
-                worst: partners.into_iter().take(settings.worst).collect(),
-                figures: vec![("largest_box_overlap", most as f64)],
-                advice: "rays through the overlap traverse several BVHs: merge geometries \
-                         whose boxes overlap this much into one",
-            });
-        }
     }
+    pairs
 }
 
 /// Rebuild or refit, for a deforming mesh: `rest` and each of `poses` must have the

@@ -258,7 +258,8 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
     let (out, map) = if variants.iter().any(|v| v.1.is_some()) {
         // Keep the split only if the tracer says so, on probe rays.
         let (split, split_map) = assemble(scene, &variants, true);
-        if probe_box_tests(&whole, &split) < probe_box_tests(&whole, &whole) {
+        let rays = probe_rays(&whole);
+        if probe_box_tests(&rays, &split) < probe_box_tests(&rays, &whole) {
             total.split_geometries = variants.iter().filter(|v| v.1.is_some()).count();
             (split, split_map)
         } else {
@@ -268,9 +269,14 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
         (whole, whole_map)
     };
     let (out, map) = if settings.merge_overlapping {
-        match merge_overlapping(&out, &map) {
+        let merge = merge_overlapping(&out, &map);
+        let rays = merge
+            .as_ref()
+            .map(|_| probe_rays(scene))
+            .unwrap_or_default();
+        match merge {
             Some((merged, merged_map, groups))
-                if probe_box_tests(scene, &merged) < probe_box_tests(scene, &out) =>
+                if probe_box_tests(&rays, &merged) < probe_box_tests(&rays, &out) =>
             {
                 total.merged_groups = groups;
                 (merged, merged_map)
@@ -289,20 +295,12 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
 /// one geometry per group, transforms baked in, placed with the identity. Returns
 /// the merged scene and map and the number of groups, or `None` when nothing merges.
 fn merge_overlapping(scene: &Scene, map: &RepairMap) -> Option<(Scene, RepairMap, usize)> {
-    use crate::geom::Aabb;
     let mut placements = vec![0usize; scene.meshes.len()];
     for instance in &scene.instances {
         placements[instance.mesh] += 1;
     }
-    let boxes: Vec<Aabb> = scene
-        .instances
-        .iter()
-        .map(|i| scene.meshes[i.mesh].bounds().transformed(&i.transform))
-        .collect();
-    let n = boxes.len();
-    if !(2..=2_000).contains(&n) {
-        return None;
-    }
+    let n = scene.instances.len();
+    let pairs = crate::lint::overlapping_instances(scene);
     // Union-find over instances.
     let mut parent: Vec<usize> = (0..n).collect();
     fn root(parent: &mut [usize], mut i: usize) -> usize {
@@ -313,17 +311,10 @@ fn merge_overlapping(scene: &Scene, map: &RepairMap) -> Option<(Scene, RepairMap
         i
     }
     let single = |i: usize| placements[scene.instances[i].mesh] == 1;
-    for a in 0..n {
-        for b in a + 1..n {
-            if !(single(a) && single(b)) {
-                continue;
-            }
-            let shared = boxes[a].intersection(boxes[b]);
-            let smaller = boxes[a].half_area().min(boxes[b].half_area());
-            if !shared.is_empty() && shared.half_area() >= 0.5 * smaller.max(f32::MIN_POSITIVE) {
-                let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-                parent[ra] = rb;
-            }
+    for &(a, b, _) in &pairs {
+        if single(a) && single(b) {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra] = rb;
         }
     }
     let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
@@ -425,24 +416,26 @@ fn assemble(
     (out, map)
 }
 
-/// Mean box tests per ray of 64 × 64 primary rays and their diffuse bounces (made for
-/// `reference`) traced through `candidate`.
-fn probe_box_tests(reference: &Scene, candidate: &Scene) -> f64 {
+/// The probe rays for `reference`: 64 × 64 primary rays and their diffuse bounces.
+fn probe_rays(reference: &Scene) -> Vec<crate::Ray> {
+    use crate::trace::{RayKind, SceneAccel, Workload};
+    let accel = SceneAccel::build(reference, &crate::bvh::BuildSettings::default());
+    [RayKind::Primary, RayKind::Diffuse]
+        .into_iter()
+        .flat_map(|kind| Workload::generate(kind, reference, &accel, 64, 64, 1).rays)
+        .collect()
+}
+
+/// Mean box tests per ray of `rays` traced through `candidate`.
+fn probe_box_tests(rays: &[crate::Ray], candidate: &Scene) -> f64 {
     use crate::trace::workload::trace_closest;
-    use crate::trace::{Counters, RayCounters, RayKind, SceneAccel, Workload};
-    let settings = crate::bvh::BuildSettings::default();
-    let rays_for = SceneAccel::build(reference, &settings);
-    let accel = SceneAccel::build(candidate, &settings);
+    use crate::trace::{Counters, RayCounters, SceneAccel};
+    let accel = SceneAccel::build(candidate, &crate::bvh::BuildSettings::default());
     let mut total = RayCounters::default();
-    let mut rays = 0;
-    for kind in [RayKind::Primary, RayKind::Diffuse] {
-        let work = Workload::generate(kind, reference, &rays_for, 64, 64, 1);
-        for counters in trace_closest::<RayCounters>(&accel, &work.rays).1 {
-            total.merge(&counters);
-        }
-        rays += work.rays.len();
+    for counters in trace_closest::<RayCounters>(&accel, rays).1 {
+        total.merge(&counters);
     }
-    total.box_tests as f64 / rays.max(1) as f64
+    total.box_tests as f64 / rays.len().max(1) as f64
 }
 
 /// One mesh per piece (`piece[t]` of triangle `t`; triangles in no piece go with
