@@ -128,10 +128,14 @@ fn corner_bits(scene: &Scene) -> Vec<[u32; 9]> {
         .collect()
 }
 
+/// Writes `scene` and reads it back. Tests run in parallel threads, so every call
+/// gets its own directory (a shared one was removed under a neighbour in CI).
 fn round_trip(scene: &Scene, extension: &str) -> Scene {
-    let dir = std::env::temp_dir().join(format!("rtmesh-io-test-{}", std::process::id()));
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("rtmesh-io-test-{}-{call}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join(format!("round-trip-{}.{extension}", scene.meshes.len()));
+    let path = dir.join(format!("round-trip.{extension}"));
     write(scene, &path).unwrap();
     let back = read(&path).unwrap();
     std::fs::remove_dir_all(&dir).ok();
