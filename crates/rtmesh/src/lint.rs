@@ -213,6 +213,7 @@ pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
         lint_pieces(g, mesh, settings, &mut findings);
     }
     lint_overlaps(scene, settings, &mut findings);
+    estimate_grouping(scene, &mut findings);
     lint_alpha_layers(scene, &mut findings);
     LintReport {
         triangles: scene.meshes.iter().map(TriMesh::triangle_count).sum(),
@@ -589,6 +590,30 @@ fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Find
             advice: "rays through the overlap traverse several BVHs: merge geometries \
                      whose boxes overlap this much into one",
         });
+    }
+}
+
+/// The two-level SAH cost of the scene as it is and as the proposed grouping
+/// ([`crate::repair::proposed_grouping`]) would make it, added to the grouping
+/// findings as `two_level_sah_before` and `two_level_sah_after`. Builds the BVHs of
+/// both (only for scenes with such findings).
+fn estimate_grouping(scene: &Scene, findings: &mut [Finding]) {
+    let is_grouping =
+        |f: &Finding| matches!(f.kind, "scattered-geometry" | "overlapping-geometries");
+    if !findings.iter().any(is_grouping) {
+        return;
+    }
+    let Some(proposed) = crate::repair::proposed_grouping(scene) else {
+        return;
+    };
+    let cost = |scene: &Scene| {
+        crate::trace::SceneAccel::build(scene, &crate::bvh::BuildSettings::default())
+            .two_level_sah_cost()
+    };
+    let (before, after) = (cost(scene), cost(&proposed));
+    for finding in findings.iter_mut().filter(|f| is_grouping(f)) {
+        finding.figures.push(("two_level_sah_before", before));
+        finding.figures.push(("two_level_sah_after", after));
     }
 }
 

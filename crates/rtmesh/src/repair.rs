@@ -120,6 +120,9 @@ pub struct RepairReport {
     pub merged_groups: usize,
     /// Output geometries.
     pub geometries_out: usize,
+    /// Output geometries with no alpha-tested triangle, to be flagged opaque
+    /// ([`TriMesh::is_opaque`]).
+    pub opaque_geometries: Vec<u32>,
 }
 
 /// A repaired geometry and, per output triangle, its input triangle id.
@@ -287,7 +290,38 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
         (out, map)
     };
     total.geometries_out = out.meshes.len();
+    total.opaque_geometries = (0..out.meshes.len() as u32)
+        .filter(|&g| out.meshes[g as usize].is_opaque())
+        .collect();
     (out, map, total)
+}
+
+/// The regrouping that lint estimates and `repair --split-scattered
+/// --merge-overlapping` tries, before probe rays judge it: every scattered geometry
+/// split into one geometry per piece, then the geometries placed once whose boxes
+/// overlap by half or more merged into one. `None` when neither applies.
+pub fn proposed_grouping(scene: &Scene) -> Option<Scene> {
+    let variants: Vec<(Vec<Repaired>, Option<Vec<Repaired>>)> = scene
+        .meshes
+        .iter()
+        .map(|mesh| {
+            let whole = Repaired {
+                mesh: mesh.clone(),
+                input_triangle: (0..mesh.triangle_count() as u32).collect(),
+            };
+            let pieces = crate::lint::Pieces::of(mesh);
+            let split = pieces
+                .scattered()
+                .then(|| split_pieces(&whole, &pieces.of_triangle, pieces.boxes.len()));
+            (vec![whole], split)
+        })
+        .collect();
+    let split_any = variants.iter().any(|v| v.1.is_some());
+    let (split, map) = assemble(scene, &variants, true);
+    match merge_overlapping(&split, &map) {
+        Some((merged, _, _)) => Some(merged),
+        None => split_any.then_some(split),
+    }
 }
 
 /// Merge the geometries of instances whose boxes overlap by half or more (as lint's

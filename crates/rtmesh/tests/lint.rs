@@ -137,12 +137,43 @@ fn a_fan_is_found_at_its_centre() {
 
 #[test]
 fn scattered_pieces_in_one_geometry_are_found() {
-    let mut mesh = grid(2, Vec3::ZERO);
-    let far = grid(2, Vec3::new(100.0, 100.0, 50.0));
+    let mut mesh = grid(16, Vec3::ZERO);
+    let far = grid(16, Vec3::new(100.0, 100.0, 50.0));
     mesh.append(&far, &Affine3A::IDENTITY, 0);
     let scene = Scene::from_mesh(mesh);
     assert_eq!(kinds(&scene), BTreeSet::from(["scattered-geometry"]));
     assert_eq!(finding(&scene, "scattered-geometry").count, 2);
+}
+
+#[test]
+fn splitting_a_scattered_geometry_around_another_lowers_the_two_level_estimate() {
+    let mut scattered = grid(16, Vec3::ZERO);
+    scattered.append(
+        &grid(16, Vec3::new(100.0, 100.0, 50.0)),
+        &Affine3A::IDENTITY,
+        0,
+    );
+    let mut scene = Scene::from_mesh(scattered);
+    scene.push_mesh(grid(16, Vec3::new(50.0, 50.0, 25.0)), Affine3A::IDENTITY);
+    let found = finding(&scene, "scattered-geometry");
+    let figure = |name: &str| found.figures.iter().find(|f| f.0 == name).unwrap().1;
+    let (before, after) = (
+        figure("two_level_sah_before"),
+        figure("two_level_sah_after"),
+    );
+    let accel = SceneAccel::build(&scene, &BuildSettings::default());
+    assert_eq!(before, accel.two_level_sah_cost());
+    // Before, rays towards the middle geometry also enter the scattered one's BLAS.
+    assert!(after < before - 0.5, "{before} → {after}");
+    let single = SceneAccel::build(
+        &Scene::from_mesh(grid(16, Vec3::ZERO)),
+        &BuildSettings::default(),
+    );
+    assert_eq!(
+        single.two_level_sah_cost() as f32,
+        single.stats().sah_cost,
+        "one untransformed mesh: the BLAS's own cost"
+    );
 }
 
 #[test]
@@ -411,6 +442,12 @@ fn alpha_tested_triangles_are_split_out() {
     assert_eq!((report.split_alpha_geometries, out.meshes.len()), (1, 2));
     assert!(out.meshes[0].alpha_tested.iter().all(|&a| !a));
     assert!(out.meshes[1].alpha_tested.iter().all(|&a| a));
+    assert!(!scene.meshes[0].is_opaque());
+    assert_eq!(
+        report.opaque_geometries,
+        vec![0],
+        "the opaque part is flagged"
+    );
     assert_eq!(map.input_triangle[1], vec![3, 8, 9, 20]);
     assert_eq!(map.input_triangle[0].len(), 28);
     assert!(!kinds(&out).contains("mixed-alpha"));

@@ -247,36 +247,56 @@ impl<P: Primitive> Bvh<P> {
 
     /// Node count, leaves, SAH cost, bytes and depth.
     pub fn stats(&self) -> BvhStats {
-        let root_area = self.bounds().half_area().max(f32::MIN_POSITIVE);
         let mut stats = BvhStats {
             nodes: self.nodes.len(),
             node_bytes: self.nodes.len() * std::mem::size_of::<BvhNode>(),
             primitives: self.primitives.len(),
             build_seconds: self.build_seconds,
+            sah_cost: self.sah_cost_by(|leaf| leaf.len() as f64) as f32,
             ..BvhStats::default()
         };
-        let mut sah = 0.0f64;
-        let mut stack = vec![(self.root, self.bounds(), 1usize)];
-        while let Some((reference, bounds, depth)) = stack.pop() {
-            let relative = (bounds.half_area() / root_area) as f64;
+        let mut stack = vec![(self.root, 1usize)];
+        while let Some((reference, depth)) = stack.pop() {
             stats.depth = stats.depth.max(depth);
+            match Child::decode(reference) {
+                Child::Inner(i) => {
+                    let node = &self.nodes[i as usize];
+                    stack.extend(node.children.iter().map(|&c| (c, depth + 1)));
+                }
+                Child::Leaf { .. } => stats.leaves += 1,
+                Child::Empty => {}
+            }
+        }
+        stats
+    }
+
+    /// SAH cost with the leaf costs given by `leaf_cost` (of a leaf's primitives):
+    /// Σ over inner nodes of A(node)/A(root) + Σ over leaves of
+    /// A(leaf)/A(root)·`leaf_cost`, A the box surface area. [`BvhStats::sah_cost`]
+    /// counts one per primitive; a two-level estimate charges each instance its BLAS's
+    /// cost ([`crate::trace::SceneAccel::two_level_sah_cost`]).
+    pub fn sah_cost_by(&self, leaf_cost: impl Fn(&[P]) -> f64) -> f64 {
+        let root_area = self.bounds().half_area().max(f32::MIN_POSITIVE) as f64;
+        let mut sah = 0.0f64;
+        let mut stack = vec![(self.root, self.bounds())];
+        while let Some((reference, bounds)) = stack.pop() {
+            let relative = bounds.half_area() as f64 / root_area;
             match Child::decode(reference) {
                 Child::Inner(i) => {
                     sah += relative;
                     let node = &self.nodes[i as usize];
                     for lane in 0..WIDTH {
-                        stack.push((node.children[lane], node.child_bounds(lane), depth + 1));
+                        stack.push((node.children[lane], node.child_bounds(lane)));
                     }
                 }
-                Child::Leaf { count, .. } => {
-                    stats.leaves += 1;
-                    sah += relative * count as f64;
+                Child::Leaf { first, count } => {
+                    let leaf = &self.primitives[first as usize..(first + count) as usize];
+                    sah += relative * leaf_cost(leaf);
                 }
                 Child::Empty => {}
             }
         }
-        stats.sah_cost = sah as f32;
-        stats
+        sah
     }
 
     /// Check every invariant: child boxes contain their subtrees' primitives, nodes come

@@ -57,6 +57,13 @@ impl TriMesh {
         }
     }
 
+    /// No triangle is alpha-tested: the geometry may carry DXR's
+    /// `D3D12_RAYTRACING_GEOMETRY_FLAG_OPAQUE` (Vulkan `VK_GEOMETRY_OPAQUE_BIT_KHR`),
+    /// so that no any-hit shader runs on it.
+    pub fn is_opaque(&self) -> bool {
+        !self.alpha_tested.contains(&true)
+    }
+
     /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()

@@ -200,6 +200,25 @@ impl<L: LeafBlock> SceneAccel<L> {
         }
     }
 
+    /// The SAH cost of tracing the scene through both levels: the TLAS's cost with
+    /// each instance leaf charged its BLAS's own SAH cost (relative to the BLAS's
+    /// root, so a transform is taken to scale areas evenly), or the BLAS's cost for a
+    /// scene of one untransformed mesh. Lower is faster; it compares groupings of the
+    /// same triangles into geometries (lint's estimate for merging and splitting).
+    pub fn two_level_sah_cost(&self) -> f64 {
+        let blas_cost: Vec<f64> = self
+            .blas
+            .iter()
+            .map(|b| b.sah_cost_by(|leaf| leaf.len() as f64))
+            .collect();
+        match &self.tlas {
+            Some(tlas) => tlas.sah_cost_by(|instances| {
+                instances.iter().map(|i| blas_cost[i.mesh as usize]).sum()
+            }),
+            None => blas_cost.first().copied().unwrap_or(0.0),
+        }
+    }
+
     /// Nodes, leaves, SAH cost, bytes, build time.
     pub fn stats(&self) -> AccelStats {
         let blas_stats: Vec<BvhStats> = self.blas.iter().map(Bvh::stats).collect();
