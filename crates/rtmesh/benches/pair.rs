@@ -1,6 +1,7 @@
 //! Triangle pairing on the full Stanford dragon (871k triangles, welded) when the data
 //! is present, else on the 100k-triangle procedural blob: the published greedy (fast
-//! route and plain reference), compressed position keys, window-2, and sah-max.
+//! route on one thread and on two, and the plain reference), compressed position keys,
+//! window-2, and sah-max.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rtmesh::mesh::weld_exact;
@@ -18,11 +19,18 @@ fn bench(c: &mut Criterion) {
     group.bench_function(format!("sah/{name}"), |b| {
         b.iter(|| one_thread.install(|| greedy::pair_sah(&mesh)))
     });
+    let two_threads = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .expect("thread pool");
+    group.bench_function(format!("sah-2-threads/{name}"), |b| {
+        b.iter(|| two_threads.install(|| greedy::pair_sah(&mesh)))
+    });
     group.bench_function(format!("sah-reference/{name}"), |b| {
         b.iter(|| greedy::pair_sah_reference(&mesh))
     });
     group.bench_function(format!("sah-compressed/{name}"), |b| {
-        b.iter(|| compressed::pair_sah_compressed(&mesh))
+        b.iter(|| one_thread.install(|| compressed::pair_sah_compressed(&mesh)))
     });
     group.bench_function(format!("window-2/{name}"), |b| {
         b.iter(|| window::pair_window(&mesh, 2))

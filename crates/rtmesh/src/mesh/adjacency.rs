@@ -13,6 +13,7 @@
 //! [`EdgeAdjacency::triangle_edges`] hold [`NO_EDGE`].
 
 use super::TriMesh;
+use rayon::prelude::*;
 
 /// Marks a triangle side that is not an edge (repeated vertex, or index out of range).
 pub const NO_EDGE: u32 = u32::MAX;
@@ -109,7 +110,8 @@ pub(crate) struct HalfEdgeRuns {
 
 impl HalfEdgeRuns {
     /// Counting sort of the half-edges of valid triangles (indices in range, three
-    /// distinct vertices) on their smaller vertex, then an insertion sort per vertex.
+    /// distinct vertices) on their smaller vertex, then an insertion sort per vertex;
+    /// parts of the triangles (then blocks of vertices) on the pool's threads.
     pub(crate) fn build(mesh: &TriMesh) -> Self {
         let vertex_count = mesh.positions.len();
         let valid = |t: &[u32; 3]| {
@@ -118,41 +120,105 @@ impl HalfEdgeRuns {
                 && t[1] != t[2]
                 && t[2] != t[0]
         };
-        // Pass 1: count half-edges per smaller vertex.
+        // The triangles in parts, one per pool thread (one below 32k triangles): each
+        // part counts and scatters its own half-edges, after the earlier parts' in every
+        // vertex's run, so runs keep ascending half-edge ids.
+        let parts = rayon::current_num_threads()
+            .min(mesh.triangles.len() >> 15)
+            .max(1);
+        let part_len = mesh.triangles.len().div_ceil(parts).max(1);
+        // Pass 1: count half-edges per smaller vertex, per part.
+        let mut cursors: Vec<Vec<u32>> = mesh
+            .triangles
+            .par_chunks(part_len)
+            .map(|part| {
+                let mut count = vec![0u32; vertex_count];
+                for t in part.iter().filter(|t| valid(t)) {
+                    for k in 0..3 {
+                        count[t[k].min(t[(k + 1) % 3]) as usize] += 1;
+                    }
+                }
+                count
+            })
+            .collect();
+        // Each part's cursor is where its run starts within the vertex's run.
         let mut start = vec![0u32; vertex_count + 1];
-        for t in mesh.triangles.iter().filter(|t| valid(t)) {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                start[a.min(b) as usize + 1] += 1;
+        let mut sum = 0u32;
+        for v in 0..vertex_count {
+            start[v] = sum;
+            for cursor in cursors.iter_mut() {
+                let count = cursor[v];
+                cursor[v] = sum;
+                sum += count;
             }
         }
-        for v in 0..vertex_count {
-            start[v + 1] += start[v];
-        }
+        start[vertex_count] = sum;
         // Pass 2: scatter (larger vertex, half-edge id) into each vertex's slots.
-        let half_edge_count = start[vertex_count] as usize;
+        let half_edge_count = sum as usize;
         let mut slots: Vec<(u32, u32)> = Vec::with_capacity(half_edge_count);
-        let spare = slots.spare_capacity_mut();
-        let mut cursor: Vec<u32> = start[..vertex_count].to_vec();
-        for (ti, t) in mesh.triangles.iter().enumerate() {
-            if !valid(t) {
-                continue;
-            }
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                let c = &mut cursor[a.min(b) as usize];
-                spare[*c as usize].write((a.max(b), (ti * 3 + k) as u32));
-                *c += 1;
-            }
-        }
-        // SAFETY: the counts make the cursors cover every slot exactly once.
+        let destination = crate::radix::SharedSlice(slots.as_mut_ptr());
+        let destination = &destination;
+        mesh.triangles
+            .par_chunks(part_len)
+            .zip(cursors)
+            .enumerate()
+            .for_each(|(p, (part, mut cursor))| {
+                for (i, t) in part.iter().enumerate() {
+                    if !valid(t) {
+                        continue;
+                    }
+                    for k in 0..3 {
+                        let (a, b) = (t[k], t[(k + 1) % 3]);
+                        let c = &mut cursor[a.min(b) as usize];
+                        let half_edge = ((p * part_len + i) * 3 + k) as u32;
+                        // SAFETY: the counts give every half-edge of every part its
+                        // own slot below `half_edge_count`.
+                        unsafe { destination.0.add(*c as usize).write((a.max(b), half_edge)) };
+                        *c += 1;
+                    }
+                }
+            });
+        // SAFETY: the cursors covered every slot exactly once.
         unsafe { slots.set_len(half_edge_count) };
-        drop(cursor);
-        // Pass 3: per vertex, sort its few half-edges by the other vertex.
-        for v in 0..vertex_count {
-            insertion_sort(&mut slots[start[v] as usize..start[v + 1] as usize]);
+        // Pass 3: per vertex, sort its few half-edges by the other vertex; blocks of
+        // vertices in parallel.
+        let mut blocks = Vec::new();
+        let mut rest = slots.as_mut_slice();
+        for range in Self::vertex_blocks(vertex_count) {
+            let (block, tail) = rest.split_at_mut((start[range.end] - start[range.start]) as usize);
+            blocks.push((range, block));
+            rest = tail;
         }
+        blocks.into_par_iter().for_each(|(range, block)| {
+            let base = start[range.start];
+            for v in range {
+                insertion_sort(
+                    &mut block[(start[v] - base) as usize..(start[v + 1] - base) as usize],
+                );
+            }
+        });
         Self { start, slots }
+    }
+
+    /// Vertex ranges for parallel work: one per pool thread, or one for fewer than
+    /// 16k vertices.
+    pub(crate) fn vertex_blocks(vertex_count: usize) -> Vec<std::ops::Range<usize>> {
+        let blocks = rayon::current_num_threads().min(vertex_count >> 14).max(1);
+        let block = vertex_count.div_ceil(blocks).max(1);
+        (0..vertex_count)
+            .step_by(block)
+            .map(|v| v..(v + block).min(vertex_count))
+            .collect()
+    }
+
+    /// Half-edges whose smaller vertex is in `vertices`.
+    pub(crate) fn half_edge_count_of(&self, vertices: &std::ops::Range<usize>) -> usize {
+        (self.start[vertices.end] - self.start[vertices.start]) as usize
+    }
+
+    /// Vertices (the runs' index range).
+    pub(crate) fn vertex_count(&self) -> usize {
+        self.start.len() - 1
     }
 
     /// Half-edges of valid triangles.
@@ -162,8 +228,17 @@ impl HalfEdgeRuns {
 
     /// Call `f(min, max, slots)` for every edge in ascending `(min, max)` order, where
     /// `slots` are its `(max, half-edge id)` entries, half-edge ids ascending.
-    pub(crate) fn for_each_edge(&self, mut f: impl FnMut(u32, u32, &[(u32, u32)])) {
-        for v in 0..self.start.len() - 1 {
+    pub(crate) fn for_each_edge(&self, f: impl FnMut(u32, u32, &[(u32, u32)])) {
+        self.for_each_edge_of(0..self.vertex_count(), f);
+    }
+
+    /// [`Self::for_each_edge`] over the edges whose smaller vertex is in `vertices`.
+    pub(crate) fn for_each_edge_of(
+        &self,
+        vertices: std::ops::Range<usize>,
+        mut f: impl FnMut(u32, u32, &[(u32, u32)]),
+    ) {
+        for v in vertices {
             let mut run = &self.slots[self.start[v] as usize..self.start[v + 1] as usize];
             while let Some(&(other, _)) = run.first() {
                 let len = run.iter().take_while(|s| s.0 == other).count();

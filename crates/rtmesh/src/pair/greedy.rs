@@ -15,11 +15,14 @@
 //! boundary edges, and radix-sorts only the shared edges on a 64-bit key
 //! `BBSA bits << 32 | edge rank` (positive floats sort as their bits): three passes of
 //! 8-bit digits over the BBSA's significant bits, no per-edge allocation. Cost:
-//! O(T + V) time; about 24 bytes per half-edge of scratch memory.
+//! O(T + V) time; about 24 bytes per half-edge of scratch memory. The half-edge table,
+//! the couples and the sort split their work over the rayon pool's threads; the scan,
+//! whose every step depends on the ones before, stays on one.
 
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{HalfEdgeRuns, TriMesh};
 use crate::radix::sort_u64_by_bits;
+use rayon::prelude::*;
 
 /// One record of the paper's half-edge table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,41 +130,24 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
 pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     let runs = HalfEdgeRuns::build(mesh);
     let active = ActiveTriangles::new(mesh);
-    let is_active: Vec<bool> = (0..mesh.triangle_count()).map(|t| active.get(t)).collect();
-    let mut records: Vec<u64> = Vec::with_capacity(runs.half_edge_count() / 2);
-    let mut all_couples: Vec<[u32; 2]> = Vec::with_capacity(runs.half_edge_count() / 2);
-    let mut couples: Vec<[u32; 2]> = Vec::with_capacity(4);
-    runs.for_each_edge(|first, second, half_edges| {
-        if half_edges.len() < 2 {
-            return;
-        }
-        // Neighbours in the table: the active half-edges, in table order.
-        couples.clear();
-        let mut previous: Option<u32> = None;
-        for &(_, h) in half_edges.iter().filter(|s| is_active[(s.1 / 3) as usize]) {
-            if let Some(g) = previous {
-                let (a, b) = (g / 3, h / 3);
-                let starts_at_first =
-                    |h: u32, t: u32| mesh.triangles[t as usize][(h % 3) as usize] == first;
-                if starts_at_first(g, a) != starts_at_first(h, b) {
-                    couples.push([a, b]);
-                }
-            }
-            previous = Some(h);
-        }
-        if couples.is_empty() {
-            return;
-        }
-        let bbsa = edge_bbsa(
-            mesh.positions[first as usize],
-            mesh.positions[second as usize],
-        );
-        // The scan walks records backwards: push an edge's couples last-first.
-        for &couple in couples.iter().rev() {
-            records.push((bbsa.to_bits() as u64) << 32 | all_couples.len() as u64);
-            all_couples.push(couple);
-        }
-    });
+    let is_active: Vec<bool> = (0..mesh.triangle_count())
+        .into_par_iter()
+        .map(|t| active.get(t))
+        .collect();
+    // Blocks of vertices in parallel, each with its records (couple indices local to
+    // the block) and couples, concatenated in vertex order below.
+    let mut blocks: Vec<(Vec<u64>, Vec<[u32; 2]>)> =
+        HalfEdgeRuns::vertex_blocks(runs.vertex_count())
+            .into_par_iter()
+            .map(|vertices| shared_edge_couples(mesh, &runs, &is_active, vertices))
+            .collect();
+    let (mut records, mut all_couples) = blocks.remove(0);
+    for (block_records, block_couples) in &blocks {
+        let base = all_couples.len() as u64;
+        records.extend(block_records.iter().map(|&r| r + base));
+        all_couples.extend_from_slice(block_couples);
+    }
+    drop(blocks);
     // Stable ascending by BBSA keeps ascending (first, second) among equal areas;
     // walked backwards this is the table's descending [BBSA, first, second] order.
     sort_u64_by_bits(&mut records, 32, 64);
@@ -184,4 +170,51 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
         }
     }
     Pairing::from_partners(&partner)
+}
+
+/// The couples of the shared edges whose smaller vertex is in `vertices` (neighbouring
+/// active half-edges in table order that traverse the edge in opposite directions),
+/// and one record `BBSA bits << 32 | couple index` per couple. An edge's couples are
+/// listed last-first, as the scan walks the sorted records backwards.
+fn shared_edge_couples(
+    mesh: &TriMesh,
+    runs: &HalfEdgeRuns,
+    is_active: &[bool],
+    vertices: std::ops::Range<usize>,
+) -> (Vec<u64>, Vec<[u32; 2]>) {
+    // About half the half-edges are edges, and on a closed mesh every edge is shared.
+    let capacity = runs.half_edge_count_of(&vertices) / 2;
+    let mut records: Vec<u64> = Vec::with_capacity(capacity);
+    let mut all_couples: Vec<[u32; 2]> = Vec::with_capacity(capacity);
+    let mut couples: Vec<[u32; 2]> = Vec::with_capacity(4);
+    runs.for_each_edge_of(vertices, |first, second, half_edges| {
+        if half_edges.len() < 2 {
+            return;
+        }
+        couples.clear();
+        let mut previous: Option<u32> = None;
+        for &(_, h) in half_edges.iter().filter(|s| is_active[(s.1 / 3) as usize]) {
+            if let Some(g) = previous {
+                let (a, b) = (g / 3, h / 3);
+                let starts_at_first =
+                    |h: u32, t: u32| mesh.triangles[t as usize][(h % 3) as usize] == first;
+                if starts_at_first(g, a) != starts_at_first(h, b) {
+                    couples.push([a, b]);
+                }
+            }
+            previous = Some(h);
+        }
+        if couples.is_empty() {
+            return;
+        }
+        let bbsa = edge_bbsa(
+            mesh.positions[first as usize],
+            mesh.positions[second as usize],
+        );
+        for &couple in couples.iter().rev() {
+            records.push((bbsa.to_bits() as u64) << 32 | all_couples.len() as u64);
+            all_couples.push(couple);
+        }
+    });
+    (records, all_couples)
 }

@@ -267,3 +267,29 @@ fn brute_force_maximum(mesh: &TriMesh) -> Option<usize> {
         &mut std::collections::HashMap::new(),
     ))
 }
+
+/// Above 32k triangles and 16k vertices the half-edge table, the couples and the
+/// sort split their work over the pool's threads: the same pairing as one thread
+/// and as the published procedure, non-manifold edges included.
+#[test]
+fn parallel_parts_pair_like_one_thread() {
+    let mut mesh = crate::mesh::weld_exact(&crate::scenes::scan_blob(80_000, 3)).mesh;
+    // Three triangles on one edge, and a duplicate triangle, in different parts.
+    let [a, b, _] = mesh.triangles[10];
+    let far = mesh.triangles.len() as u32 - 1;
+    let c = mesh.triangles[far as usize][2];
+    mesh.triangles.push([b, a, c]);
+    mesh.triangles.push(mesh.triangles[5]);
+    let reference = pair_sah_reference(&mesh);
+    for threads in [1, 2, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        assert_eq!(
+            pool.install(|| pair_sah(&mesh)),
+            reference,
+            "{threads} threads"
+        );
+    }
+}
