@@ -105,9 +105,14 @@ impl NodeTest for AvxNodeTest {
     }
 }
 
+/// No `#[target_feature]` of its own, so that it inlines into its AVX-compiled callers
+/// (a function with the attribute cannot be inlined into `children`, which has none,
+/// and stayed an out-of-line call per node visit); the intrinsics inline there.
+///
+/// # Safety
+/// Only call it from code compiled with AVX, on a CPU that has it.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-#[inline]
+#[inline(always)]
 unsafe fn avx_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
     use std::arch::x86_64::*;
     let p = &node.planes;
@@ -184,9 +189,16 @@ pub fn closest_hit<T: NodeTest, P, C: Counters>(
                 count_boxes(node, counters);
                 let (near, mut mask) = T::children(node, ray, *t_max);
                 if mask != 0 {
+                    // One child hit (the common case for incoherent rays): go on.
+                    let lane = mask.trailing_zeros() as usize;
+                    if mask & (mask - 1) == 0 {
+                        current = node.children[lane];
+                        continue;
+                    }
                     // Hit children sorted by entry distance, nearest last.
-                    let mut hits = [(0u32, 0.0f32); WIDTH];
-                    let mut n = 0;
+                    let mut hits = [(node.children[lane], near[lane]); WIDTH];
+                    let mut n = 1;
+                    mask &= mask - 1;
                     while mask != 0 {
                         let lane = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
