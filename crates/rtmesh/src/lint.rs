@@ -195,6 +195,7 @@ pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
     let mut findings = Vec::new();
     let mut empty_all = Vec::new();
     let mut aspect_all = Vec::new();
+    let mut pieces = Vec::with_capacity(scene.meshes.len());
     for (g, mesh) in scene.meshes.iter().enumerate() {
         let validation = validate(mesh);
         let shapes: Vec<Option<TriangleShape>> = (0..mesh.triangle_count())
@@ -210,10 +211,11 @@ pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
         lint_triangles(g, mesh, &shapes, settings, &mut findings);
         lint_broken(g, mesh, &validation, settings, &mut findings);
         lint_alpha(g, mesh, settings, &mut findings);
-        lint_pieces(g, mesh, settings, &mut findings);
+        pieces.push(Pieces::of(mesh));
+        lint_pieces(g, &pieces[g], settings, &mut findings);
     }
     lint_overlaps(scene, settings, &mut findings);
-    estimate_grouping(scene, &mut findings);
+    estimate_grouping(scene, &pieces, &mut findings);
     lint_alpha_layers(scene, &mut findings);
     LintReport {
         triangles: scene.meshes.iter().map(TriMesh::triangle_count).sum(),
@@ -541,8 +543,7 @@ impl Pieces {
 }
 
 /// Connected pieces of a geometry and whether they leave its box mostly empty.
-fn lint_pieces(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut Vec<Finding>) {
-    let pieces = Pieces::of(mesh);
+fn lint_pieces(g: usize, pieces: &Pieces, settings: &LintSettings, findings: &mut Vec<Finding>) {
     if pieces.scattered() {
         let ids: Vec<u32> = (0..pieces.boxes.len() as u32).collect();
         findings.push(Finding {
@@ -597,13 +598,13 @@ fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Find
 /// ([`crate::repair::proposed_grouping`]) would make it, added to the grouping
 /// findings as `two_level_sah_before` and `two_level_sah_after`. Builds the BVHs of
 /// both (only for scenes with such findings).
-fn estimate_grouping(scene: &Scene, findings: &mut [Finding]) {
+fn estimate_grouping(scene: &Scene, pieces: &[Pieces], findings: &mut [Finding]) {
     let is_grouping =
         |f: &Finding| matches!(f.kind, "scattered-geometry" | "overlapping-geometries");
     if !findings.iter().any(is_grouping) {
         return;
     }
-    let Some(proposed) = crate::repair::proposed_grouping(scene) else {
+    let Some(proposed) = crate::repair::proposed_grouping(scene, pieces) else {
         return;
     };
     let cost = |scene: &Scene| {

@@ -299,17 +299,18 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
 /// The regrouping that lint estimates and `repair --split-scattered
 /// --merge-overlapping` tries, before probe rays judge it: every scattered geometry
 /// split into one geometry per piece, then the geometries placed once whose boxes
-/// overlap by half or more merged into one. `None` when neither applies.
-pub fn proposed_grouping(scene: &Scene) -> Option<Scene> {
+/// overlap by half or more merged into one. `pieces[g]` are the pieces of geometry
+/// `g` ([`crate::lint::Pieces::of`]). `None` when neither applies.
+pub fn proposed_grouping(scene: &Scene, pieces: &[crate::lint::Pieces]) -> Option<Scene> {
     let variants: Vec<(Vec<Repaired>, Option<Vec<Repaired>>)> = scene
         .meshes
         .iter()
-        .map(|mesh| {
+        .zip(pieces)
+        .map(|(mesh, pieces)| {
             let whole = Repaired {
                 mesh: mesh.clone(),
                 input_triangle: (0..mesh.triangle_count() as u32).collect(),
             };
-            let pieces = crate::lint::Pieces::of(mesh);
             let split = pieces
                 .scattered()
                 .then(|| split_pieces(&whole, &pieces.of_triangle, pieces.boxes.len()));
