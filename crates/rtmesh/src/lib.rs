@@ -15,6 +15,7 @@ pub mod geom;
 pub mod io;
 pub mod lint;
 pub mod mesh;
+mod pages;
 pub mod pair;
 pub mod radix;
 pub mod random;

@@ -421,7 +421,7 @@ pub fn alpha_layers(scene: &Scene, width: usize, height: usize) -> Vec<u32> {
                     &mut NoCounters,
                     |blocks, t_max, _| {
                         for block in blocks {
-                            for lane in 0..block.count as usize {
+                            for lane in 0..block.count() as usize {
                                 let triangle = block.triangle(lane);
                                 if let Some((t, _, _)) = triangle.intersect(&query, t_max) {
                                     crossed

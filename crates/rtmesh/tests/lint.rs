@@ -9,7 +9,7 @@ use rtmesh::lint::{lint, LintSettings};
 use rtmesh::mesh::{weld_exact, EdgeAdjacency};
 use rtmesh::repair::{repair_mesh, Degenerate, RepairSettings};
 use rtmesh::trace::workload::trace_closest;
-use rtmesh::trace::{NoCounters, RayKind, SceneAccel, Workload};
+use rtmesh::trace::{NoCounters, RayCounters, RayKind, SceneAccel, Workload};
 use rtmesh::{Scene, TriMesh};
 use std::collections::BTreeSet;
 
@@ -266,38 +266,49 @@ fn splitting_keeps_surface_windings_and_watertightness() {
 }
 
 #[test]
-fn splitting_the_fan_cylinder_helps_and_traces_the_same_triangles() {
-    let mesh = rtmesh::scenes::fan_cylinder(128);
-    let settings = RepairSettings {
-        split_elongated: true,
-        triangle_budget: 8.0,
-        ..RepairSettings::default()
-    };
-    let (repaired, report) = repair_mesh(&mesh, &settings);
-    assert!(report.elongated_before > 0);
-    assert!(
-        report.wasted_box_area_after < 0.8 * report.wasted_box_area_before,
-        "{report:?}"
-    );
-    let before = Scene::from_mesh(mesh.clone());
-    let after = Scene::from_mesh(repaired.mesh.clone());
-    let accel_before = SceneAccel::build(&before, &BuildSettings::default());
-    let accel_after = SceneAccel::build(&after, &BuildSettings::default());
-    for kind in [RayKind::Primary, RayKind::Diffuse] {
-        let work = Workload::generate(kind, &before, &accel_before, 96, 96, 3);
-        let a = trace_closest::<NoCounters>(&accel_before, &work.rays).0;
-        let b = trace_closest::<NoCounters>(&accel_after, &work.rays).0;
-        let mut differ = 0;
-        for (x, y) in a.iter().zip(&b) {
-            assert_eq!(x.is_hit(), y.is_hit());
-            if x.is_hit() && x.triangle != repaired.input_triangle[y.triangle as usize] {
-                differ += 1;
-            }
-        }
+fn splitting_the_fan_cylinder_lowers_box_tests_and_traces_the_same_triangles() {
+    for mesh in [
+        rtmesh::scenes::fan_cylinder(128),
+        rtmesh::scenes::fan_cylinder(256),
+    ] {
+        let settings = RepairSettings {
+            split_elongated: true,
+            triangle_budget: 8.0,
+            ..RepairSettings::default()
+        };
+        let (repaired, report) = repair_mesh(&mesh, &settings);
+        assert!(report.elongated_before > 0);
         assert!(
-            differ * 200 <= work.rays.len(),
-            "{differ} rays hit another input triangle"
+            report.wasted_box_area_after < 0.8 * report.wasted_box_area_before,
+            "{report:?}"
         );
+        let before = Scene::from_mesh(mesh.clone());
+        let after = Scene::from_mesh(repaired.mesh.clone());
+        let accel_before = SceneAccel::build(&before, &BuildSettings::default());
+        let accel_after = SceneAccel::build(&after, &BuildSettings::default());
+        for kind in [RayKind::Primary, RayKind::Diffuse] {
+            let work = Workload::generate(kind, &before, &accel_before, 96, 96, 3);
+            let (a, counted_before) = trace_closest::<RayCounters>(&accel_before, &work.rays);
+            let (b, counted_after) = trace_closest::<RayCounters>(&accel_after, &work.rays);
+            let box_tests = |c: &[RayCounters]| c.iter().map(|c| c.box_tests).sum::<u64>();
+            assert!(
+                box_tests(&counted_after) < box_tests(&counted_before),
+                "{kind:?}: {} box tests after splitting, {} before",
+                box_tests(&counted_after),
+                box_tests(&counted_before)
+            );
+            let mut differ = 0;
+            for (x, y) in a.iter().zip(&b) {
+                assert_eq!(x.is_hit(), y.is_hit());
+                if x.is_hit() && x.triangle != repaired.input_triangle[y.triangle as usize] {
+                    differ += 1;
+                }
+            }
+            assert!(
+                differ * 200 <= work.rays.len(),
+                "{differ} rays hit another input triangle"
+            );
+        }
     }
 }
 

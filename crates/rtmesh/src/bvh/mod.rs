@@ -19,6 +19,7 @@ mod build;
 pub use build::BuildSettings;
 
 use crate::geom::Aabb;
+use crate::pages::{copy_to_huge_pages, vec_on_huge_pages};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -170,14 +171,16 @@ impl<P: Primitive> Bvh<P> {
         let start = std::time::Instant::now();
         let (nodes, root, order) = build::build(&primitives, settings);
         let mut slots: Vec<Option<P>> = primitives.into_iter().map(Some).collect();
-        let primitives = order
-            .iter()
-            .map(|&i| slots[i as usize].take().expect("each primitive once"))
-            .collect();
+        let mut in_leaf_order = vec_on_huge_pages(order.len());
+        in_leaf_order.extend(
+            order
+                .iter()
+                .map(|&i| slots[i as usize].take().expect("each primitive once")),
+        );
         Self {
             nodes,
             root,
-            primitives,
+            primitives: in_leaf_order,
             build_seconds: start.elapsed().as_secs_f64(),
         }
     }
@@ -186,7 +189,7 @@ impl<P: Primitive> Bvh<P> {
     /// kind by `combine` (e.g. up to four triangles into one SIMD block). Leaves of the
     /// result hold exactly one primitive each, numbered in node order.
     pub fn map_leaves<Q>(&self, combine: impl Fn(&[P]) -> Q) -> Bvh<Q> {
-        let mut primitives = Vec::new();
+        let mut primitives = vec_on_huge_pages(self.primitives.len());
         let mut remap = |reference: u32| match Child::decode(reference) {
             Child::Leaf { first, count } => {
                 primitives.push(combine(
@@ -201,7 +204,7 @@ impl<P: Primitive> Bvh<P> {
             _ => reference,
         };
         let root = remap(self.root);
-        let mut nodes = self.nodes.clone();
+        let mut nodes = copy_to_huge_pages(&self.nodes);
         for node in &mut nodes {
             for child in &mut node.children {
                 *child = remap(*child);

@@ -129,7 +129,7 @@ impl SceneAccel<Triangle4> {
             .zip(&scene.meshes)
             .for_each(|(bvh, mesh)| {
                 for block in &mut bvh.primitives {
-                    let count = block.count as usize;
+                    let count = block.count() as usize;
                     let mut triangles = [block.triangle(0); TRIANGLE4_LANES];
                     for (lane, triangle) in triangles[..count].iter_mut().enumerate() {
                         let id = block.ids[lane];

@@ -349,7 +349,7 @@ fn closest_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
                     let mut shared = I::share::<f32x4>(block, packet.origin);
                     for r in bits(active) {
                         if C::ENABLED {
-                            counters[r].triangle_tests(block.count);
+                            counters[r].triangle_tests(block.count());
                         }
                         let ray = &packet.rays[r];
                         if GENERAL && !packet.shared_origin {
@@ -436,7 +436,7 @@ fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
                     let mut shared = I::share::<f32x4>(block, packet.origin);
                     for r in bits(active & !blocked) {
                         if C::ENABLED {
-                            counters[r].triangle_tests(block.count);
+                            counters[r].triangle_tests(block.count());
                         }
                         let ray = &packet.rays[r];
                         if GENERAL && !packet.shared_origin {

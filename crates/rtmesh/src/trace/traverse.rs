@@ -160,6 +160,37 @@ pub(crate) fn insert_nearest_last<T: Copy>(
     *n += 1;
 }
 
+/// Ask the memory system for a child the traversal will probably visit after the one
+/// it goes to now (a pushed sibling), so that its cache misses overlap the current
+/// subtree's instead of following them: a single ray's traversal is otherwise a chain
+/// of dependent loads. Only a hint: it changes speed, never results.
+#[inline(always)]
+fn prefetch_child<P>(bvh: &Bvh<P>, reference: u32) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        let (start, bytes) = match Child::decode(reference) {
+            Child::Inner(i) => (
+                bvh.nodes.as_ptr().wrapping_add(i as usize) as *const i8,
+                std::mem::size_of::<[[f32; WIDTH]; 6]>(),
+            ),
+            Child::Leaf { first, count } => (
+                bvh.primitives.as_ptr().wrapping_add(first as usize) as *const i8,
+                count as usize * std::mem::size_of::<P>(),
+            ),
+            Child::Empty => return,
+        };
+        let mut offset = 0;
+        while offset < bytes {
+            // SAFETY: prefetching never faults, whatever the address.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
+            offset += 64;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (bvh, reference);
+}
+
 #[inline(always)]
 fn count_boxes<C: Counters>(node: &BvhNode, counters: &mut C) {
     if C::ENABLED {
@@ -210,6 +241,7 @@ pub fn closest_hit<T: NodeTest, P, C: Counters>(
                         );
                     }
                     for &entry in &hits[..n - 1] {
+                        prefetch_child(bvh, entry.0);
                         stack.push(entry);
                     }
                     current = hits[n - 1].0;
