@@ -1,9 +1,12 @@
-//! Transparent huge pages for the tracer's big arrays (nodes and leaf blocks).
+//! Transparent huge pages for big arrays: the tracer's nodes and leaf blocks, and the
+//! pairing's half-edge table, records and sort scratch.
 //!
 //! A traversal of a large mesh touches nodes and leaves all over tens of megabytes; with
 //! 4 KiB pages nearly every visit misses the TLB and waits for a page walk on top of the
 //! cache miss. Backing the arrays with 2 MiB pages (as Embree does for its BVH memory)
-//! leaves a few dozen TLB entries to cover them. On Linux, whose transparent huge pages
+//! leaves a few dozen TLB entries to cover them. Scratch arrays written once in a
+//! scattered order (a counting sort's output) fault in one page per 2 MiB instead of
+//! one per 4 KiB. On Linux, whose transparent huge pages
 //! are often enabled only on request (`/sys/kernel/mm/transparent_hugepage/enabled` =
 //! `madvise`), a vector's reserved but untouched memory is marked `MADV_HUGEPAGE`
 //! before it is filled, so its first writes fault in huge pages. Elsewhere, or when the

@@ -56,7 +56,8 @@ fn sort_by_bits<K: Copy + Default + Send + Sync>(
             histogram[digit(k, shift, mask)] += 1;
         }
     }
-    let mut scratch = vec![K::default(); keys.len()];
+    let mut scratch = crate::pages::vec_on_huge_pages(keys.len());
+    scratch.resize(keys.len(), K::default());
     for (total, &(shift, mask)) in totals.iter().zip(&shifts) {
         if total.contains(&keys.len()) {
             continue; // every key has this digit: the pass would not move anything

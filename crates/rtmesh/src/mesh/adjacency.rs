@@ -155,7 +155,7 @@ impl HalfEdgeRuns {
         start[vertex_count] = sum;
         // Pass 2: scatter (larger vertex, half-edge id) into each vertex's slots.
         let half_edge_count = sum as usize;
-        let mut slots: Vec<(u32, u32)> = Vec::with_capacity(half_edge_count);
+        let mut slots: Vec<(u32, u32)> = crate::pages::vec_on_huge_pages(half_edge_count);
         let destination = crate::radix::SharedSlice(slots.as_mut_ptr());
         let destination = &destination;
         mesh.triangles

@@ -21,6 +21,7 @@
 
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{HalfEdgeRuns, TriMesh};
+use crate::pages::vec_on_huge_pages;
 use crate::radix::sort_u64_by_bits;
 use rayon::prelude::*;
 
@@ -184,8 +185,8 @@ fn shared_edge_couples(
 ) -> (Vec<u64>, Vec<[u32; 2]>) {
     // About half the half-edges are edges, and on a closed mesh every edge is shared.
     let capacity = runs.half_edge_count_of(&vertices) / 2;
-    let mut records: Vec<u64> = Vec::with_capacity(capacity);
-    let mut all_couples: Vec<[u32; 2]> = Vec::with_capacity(capacity);
+    let mut records: Vec<u64> = vec_on_huge_pages(capacity);
+    let mut all_couples: Vec<[u32; 2]> = vec_on_huge_pages(capacity);
     let mut couples: Vec<[u32; 2]> = Vec::with_capacity(4);
     runs.for_each_edge_of(vertices, |first, second, half_edges| {
         if half_edges.len() < 2 {
