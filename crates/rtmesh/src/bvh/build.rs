@@ -12,7 +12,6 @@
 
 use super::{BvhNode, Child, Primitive, MAX_LEAF_SIZE, MAX_PRIMITIVES, WIDTH};
 use crate::geom::Aabb;
-use crate::pages::vec_on_huge_pages;
 use glam::{Vec3, Vec4};
 
 /// Build settings, with named presets.
@@ -184,7 +183,7 @@ pub(super) fn build<P: Primitive>(
         return (Vec::new(), Child::Empty.encode(), Vec::new());
     }
     let tree = build_node(&settings, &mut refs, 0, 0);
-    let mut nodes = vec_on_huge_pages(primitives.len() / 2);
+    let mut nodes = Vec::with_capacity(primitives.len() / 2);
     let root = collapse(&tree, &mut nodes);
     (nodes, root, refs.iter().map(PrimRef::index).collect())
 }

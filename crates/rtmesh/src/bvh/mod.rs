@@ -171,16 +171,14 @@ impl<P: Primitive> Bvh<P> {
         let start = std::time::Instant::now();
         let (nodes, root, order) = build::build(&primitives, settings);
         let mut slots: Vec<Option<P>> = primitives.into_iter().map(Some).collect();
-        let mut in_leaf_order = vec_on_huge_pages(order.len());
-        in_leaf_order.extend(
-            order
-                .iter()
-                .map(|&i| slots[i as usize].take().expect("each primitive once")),
-        );
+        let primitives = order
+            .iter()
+            .map(|&i| slots[i as usize].take().expect("each primitive once"))
+            .collect();
         Self {
             nodes,
             root,
-            primitives: in_leaf_order,
+            primitives,
             build_seconds: start.elapsed().as_secs_f64(),
         }
     }
