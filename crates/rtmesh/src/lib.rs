@@ -27,16 +27,23 @@ pub mod trace;
 pub use geom::{Aabb, Ray};
 pub use mesh::{Instance, Material, Scene, TriMesh};
 
-/// Hint the CPU to fetch `value`'s cache line (no effect where unsupported).
+/// Hint the CPU to fetch the cache lines of `value` (no effect where unsupported).
 #[inline(always)]
-pub(crate) fn prefetch<T>(value: &T) {
+pub(crate) fn prefetch<T: ?Sized>(value: &T) {
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: prefetching is a hint; it never faults, whatever the address.
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-            (value as *const T).cast(),
-        )
-    };
+    {
+        let start = (value as *const T).cast::<i8>();
+        let mut offset = 0;
+        while offset < std::mem::size_of_val(value) {
+            // SAFETY: prefetching is a hint; it never faults, whatever the address.
+            unsafe {
+                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
+                    start.wrapping_add(offset),
+                )
+            };
+            offset += 64;
+        }
+    }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = value;
 }

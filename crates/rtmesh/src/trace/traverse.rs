@@ -166,29 +166,13 @@ pub(crate) fn insert_nearest_last<T: Copy>(
 /// of dependent loads. Only a hint: it changes speed, never results.
 #[inline(always)]
 fn prefetch_child<P>(bvh: &Bvh<P>, reference: u32) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
-        let (start, bytes) = match Child::decode(reference) {
-            Child::Inner(i) => (
-                bvh.nodes.as_ptr().wrapping_add(i as usize) as *const i8,
-                std::mem::size_of::<[[f32; WIDTH]; 6]>(),
-            ),
-            Child::Leaf { first, count } => (
-                bvh.primitives.as_ptr().wrapping_add(first as usize) as *const i8,
-                count as usize * std::mem::size_of::<P>(),
-            ),
-            Child::Empty => return,
-        };
-        let mut offset = 0;
-        while offset < bytes {
-            // SAFETY: prefetching never faults, whatever the address.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(start.wrapping_add(offset)) };
-            offset += 64;
+    match Child::decode(reference) {
+        Child::Inner(i) => crate::prefetch(&bvh.nodes[i as usize].planes),
+        Child::Leaf { first, count } => {
+            crate::prefetch(&bvh.primitives[first as usize..(first + count) as usize])
         }
+        Child::Empty => {}
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (bvh, reference);
 }
 
 #[inline(always)]
