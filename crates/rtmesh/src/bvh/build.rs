@@ -343,7 +343,7 @@ fn best_split_in<const BINS: usize>(
             area_box = area_box.union(axis_bins[b - 1].bounds);
             count += axis_bins[b - 1].count;
             let cost = settings.node_cost
-                + (area_box.half_area() * count as f32 + right_cost[b])
+                + (area_box.half_area() * blocks(count, settings) + right_cost[b])
                     * inverse_area
                     * settings.primitive_cost;
             if count > 0 && (count as usize) < refs.len() && best.is_none_or(|(c, _, _)| cost < c) {
