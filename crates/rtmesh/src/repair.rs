@@ -572,16 +572,14 @@ fn split_elongated(
     budget: usize,
     force: bool,
 ) -> (usize, bool) {
-    // Forced splits keep the last round; measured ones the cheapest (`best`).
-    let (rays, initial) = if force {
-        (Vec::new(), f64::INFINITY)
-    } else {
+    // Measured splits are judged against the input (its probe rays, its cost, and the
+    // input itself to go back to); forced ones keep the last round.
+    let judge = (!force).then(|| {
         let rays = probe_rays(&Scene::from_mesh(mesh.clone()));
         let initial = probe_cost(&rays, mesh);
-        (rays, initial)
-    };
-    let (original, original_input) = (mesh.clone(), input_triangle.clone());
-    let mut best = (initial, mesh.clone(), input_triangle.clone(), 0);
+        (rays, initial, mesh.clone(), input_triangle.clone())
+    });
+    let mut cheapest: Option<(f64, TriMesh, Vec<u32>, usize)> = None;
     let mut split = 0;
     let mut reached = false;
     for _round in 0..64 {
@@ -651,29 +649,32 @@ fn split_elongated(
         }
         apply_splits(mesh, input_triangle, &adjacency, &accepted);
         split += accepted.len();
-        if !force {
-            let cost = probe_cost(&rays, mesh);
-            if cost < best.0 {
-                best = (cost, mesh.clone(), input_triangle.clone(), split);
+        if let Some((rays, ..)) = &judge {
+            let cost = probe_cost(rays, mesh);
+            if cheapest.as_ref().is_none_or(|c| cost < c.0) {
+                cheapest = Some((cost, mesh.clone(), input_triangle.clone(), split));
             }
         }
         if reached || accepted.is_empty() {
             break;
         }
     }
-    if force {
+    let Some((_, initial, original, original_input)) = judge else {
         return (split, reached);
-    }
+    };
     // Splits that save under 2% of the tests are not worth their triangles.
-    let (cost, kept, kept_input, kept_split) = best;
-    if cost > (1.0 - MIN_SAVING) * initial {
-        *mesh = original;
-        *input_triangle = original_input;
-        return (0, false);
+    match cheapest {
+        Some((cost, kept, kept_input, kept_split)) if cost <= (1.0 - MIN_SAVING) * initial => {
+            *mesh = kept;
+            *input_triangle = kept_input;
+            (kept_split, reached)
+        }
+        _ => {
+            *mesh = original;
+            *input_triangle = original_input;
+            (0, false)
+        }
     }
-    *mesh = kept;
-    *input_triangle = kept_input;
-    (kept_split, reached)
 }
 
 /// Split every triangle of each edge in `edges` at the edge's midpoint.
