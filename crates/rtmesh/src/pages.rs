@@ -24,6 +24,15 @@ pub(crate) fn vec_on_huge_pages<T>(capacity: usize) -> Vec<T> {
     v
 }
 
+/// `len` copies of `value` on huge pages, written in one sequential pass. Memory a
+/// random-order pass would touch first (and, for zeroed memory, first fault in for
+/// reading and then again for writing) is faulted in here, a huge page at a time.
+pub(crate) fn filled_on_huge_pages<T: Clone>(len: usize, value: T) -> Vec<T> {
+    let mut v = vec_on_huge_pages(len);
+    v.resize(len, value);
+    v
+}
+
 /// A copy of `items` on huge pages (see [`vec_on_huge_pages`]).
 pub(crate) fn copy_to_huge_pages<T: Clone>(items: &[T]) -> Vec<T> {
     let mut v = vec_on_huge_pages(items.len());

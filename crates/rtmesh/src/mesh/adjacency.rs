@@ -100,25 +100,37 @@ impl EdgeAdjacency {
 /// The half-edges of a mesh grouped by canonical edge: a CSR table over the smaller
 /// vertex whose per-vertex runs are sorted by (larger vertex, half-edge id). Half-edge
 /// `3t + k` is side `(t[k], t[k + 1])` of triangle `t`. Shared by [`EdgeAdjacency`] and
-/// triangle pairing ([`crate::pair`]), which walk the edges in ascending `(min, max)`.
-pub(crate) struct HalfEdgeRuns {
+/// the maximum-matching search ([`crate::pair::matching`]), which walk the edges in
+/// ascending `(min, max)`. The greedy pairing keeps unsorted runs of bare half-edge ids
+/// (`E = u32`): half the memory, and it reads the other vertex from the triangle.
+pub(crate) struct HalfEdgeRuns<E = (u32, u32)> {
     /// `slots[start[v]..start[v + 1]]` are the half-edges whose smaller vertex is `v`.
     start: Vec<u32>,
-    /// (larger vertex, half-edge id).
-    slots: Vec<(u32, u32)>,
+    /// One entry per half-edge: here (larger vertex, half-edge id).
+    slots: Vec<E>,
 }
 
-impl HalfEdgeRuns {
-    /// Counting sort of the half-edges of valid triangles (indices in range, three
-    /// distinct vertices) on their smaller vertex, then an insertion sort per vertex;
-    /// parts of the triangles (then blocks of vertices) on the pool's threads.
-    pub(crate) fn build(mesh: &TriMesh) -> Self {
+impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
+    /// Counting sort of the half-edges of the valid triangles (indices in range, three
+    /// distinct vertices) for which `include(t)` holds, on their smaller vertex, as
+    /// entries `entry(smaller, larger, half-edge id)`; within a vertex's run, half-edge
+    /// ids ascend and larger vertices are in no order. Parts of the triangles on the
+    /// pool's threads.
+    pub(crate) fn unsorted(
+        mesh: &TriMesh,
+        include: impl Fn(usize) -> bool + Sync,
+        entry: impl Fn(u32, u32, u32) -> E + Sync,
+    ) -> Self {
         let vertex_count = mesh.positions.len();
+        // `&`, not `&&`: nearly every triangle is valid, and one test of all six
+        // conditions costs less than six branches.
         let valid = |t: &[u32; 3]| {
-            t.iter().all(|&v| (v as usize) < vertex_count)
-                && t[0] != t[1]
-                && t[1] != t[2]
-                && t[2] != t[0]
+            ((t[0] as usize) < vertex_count)
+                & ((t[1] as usize) < vertex_count)
+                & ((t[2] as usize) < vertex_count)
+                & (t[0] != t[1])
+                & (t[1] != t[2])
+                & (t[2] != t[0])
         };
         // The triangles in parts, one per pool thread (one below 32k triangles): each
         // part counts and scatters its own half-edges, after the earlier parts' in every
@@ -127,15 +139,19 @@ impl HalfEdgeRuns {
             .min(mesh.triangles.len() >> 15)
             .max(1);
         let part_len = mesh.triangles.len().div_ceil(parts).max(1);
+        let included = |p: usize, i: usize, t: &[u32; 3]| valid(t) && include(p * part_len + i);
         // Pass 1: count half-edges per smaller vertex, per part.
         let mut cursors: Vec<Vec<u32>> = mesh
             .triangles
             .par_chunks(part_len)
-            .map(|part| {
+            .enumerate()
+            .map(|(p, part)| {
                 let mut count = vec![0u32; vertex_count];
-                for t in part.iter().filter(|t| valid(t)) {
-                    for k in 0..3 {
-                        count[t[k].min(t[(k + 1) % 3]) as usize] += 1;
+                for (i, t) in part.iter().enumerate() {
+                    if included(p, i, t) {
+                        for k in 0..3 {
+                            count[t[k].min(t[(k + 1) % 3]) as usize] += 1;
+                        }
                     }
                 }
                 count
@@ -155,7 +171,7 @@ impl HalfEdgeRuns {
         start[vertex_count] = sum;
         // Pass 2: scatter (larger vertex, half-edge id) into each vertex's slots.
         let half_edge_count = sum as usize;
-        let mut slots: Vec<(u32, u32)> = crate::pages::vec_on_huge_pages(half_edge_count);
+        let mut slots: Vec<E> = crate::pages::vec_on_huge_pages(half_edge_count);
         let destination = crate::radix::SharedSlice(slots.as_mut_ptr());
         let destination = &destination;
         mesh.triangles
@@ -164,7 +180,7 @@ impl HalfEdgeRuns {
             .enumerate()
             .for_each(|(p, (part, mut cursor))| {
                 for (i, t) in part.iter().enumerate() {
-                    if !valid(t) {
+                    if !included(p, i, t) {
                         continue;
                     }
                     for k in 0..3 {
@@ -173,33 +189,35 @@ impl HalfEdgeRuns {
                         let half_edge = ((p * part_len + i) * 3 + k) as u32;
                         // SAFETY: the counts give every half-edge of every part its
                         // own slot below `half_edge_count`.
-                        unsafe { destination.0.add(*c as usize).write((a.max(b), half_edge)) };
+                        unsafe {
+                            destination.0.add(*c as usize).write(entry(
+                                a.min(b),
+                                a.max(b),
+                                half_edge,
+                            ))
+                        };
                         *c += 1;
                     }
                 }
             });
         // SAFETY: the cursors covered every slot exactly once.
         unsafe { slots.set_len(half_edge_count) };
-        // Pass 3: per vertex, sort its few half-edges by the other vertex; blocks of
-        // vertices in parallel.
-        let mut blocks = Vec::new();
-        let mut rest = slots.as_mut_slice();
-        for range in Self::vertex_blocks(vertex_count) {
-            let (block, tail) = rest.split_at_mut((start[range.end] - start[range.start]) as usize);
-            blocks.push((range, block));
-            rest = tail;
-        }
-        blocks.into_par_iter().for_each(|(range, block)| {
-            let base = start[range.start];
-            for v in range {
-                insertion_sort(
-                    &mut block[(start[v] - base) as usize..(start[v + 1] - base) as usize],
-                );
-            }
-        });
         Self { start, slots }
     }
 
+    /// The entries of the half-edges whose smaller vertex is `v`.
+    #[inline]
+    pub(crate) fn run(&self, v: usize) -> &[E] {
+        &self.slots[self.start[v] as usize..self.start[v + 1] as usize]
+    }
+
+    /// Vertices (the runs' index range).
+    pub(crate) fn vertex_count(&self) -> usize {
+        self.start.len() - 1
+    }
+}
+
+impl HalfEdgeRuns {
     /// Vertex ranges for parallel work: one per pool thread, or one for fewer than
     /// 16k vertices.
     pub(crate) fn vertex_blocks(vertex_count: usize) -> Vec<std::ops::Range<usize>> {
@@ -211,14 +229,31 @@ impl HalfEdgeRuns {
             .collect()
     }
 
-    /// Half-edges whose smaller vertex is in `vertices`.
-    pub(crate) fn half_edge_count_of(&self, vertices: &std::ops::Range<usize>) -> usize {
-        (self.start[vertices.end] - self.start[vertices.start]) as usize
+    /// The runs of the valid triangles' half-edges (indices in range, three distinct
+    /// vertices), each sorted by (larger vertex, half-edge id).
+    pub(crate) fn build(mesh: &TriMesh) -> Self {
+        let mut runs = HalfEdgeRuns::unsorted(mesh, |_| true, |_, larger, h| (larger, h));
+        runs.sort_runs();
+        runs
     }
 
-    /// Vertices (the runs' index range).
-    pub(crate) fn vertex_count(&self) -> usize {
-        self.start.len() - 1
+    /// Sort every vertex's run by (larger vertex, half-edge id); blocks of vertices in
+    /// parallel.
+    fn sort_runs(&mut self) {
+        let start = &self.start;
+        let mut blocks = Vec::new();
+        let mut rest = self.slots.as_mut_slice();
+        for range in Self::vertex_blocks(start.len() - 1) {
+            let (block, tail) = rest.split_at_mut((start[range.end] - start[range.start]) as usize);
+            blocks.push((range, block));
+            rest = tail;
+        }
+        blocks.into_par_iter().for_each(|(range, block)| {
+            let base = start[range.start];
+            for v in range {
+                sort_run(&mut block[(start[v] - base) as usize..(start[v + 1] - base) as usize]);
+            }
+        });
     }
 
     /// Half-edges of valid triangles.
@@ -239,7 +274,7 @@ impl HalfEdgeRuns {
         mut f: impl FnMut(u32, u32, &[(u32, u32)]),
     ) {
         for v in vertices {
-            let mut run = &self.slots[self.start[v] as usize..self.start[v + 1] as usize];
+            let mut run = self.run(v);
             while let Some(&(other, _)) = run.first() {
                 let len = run.iter().take_while(|s| s.0 == other).count();
                 f(v as u32, other, &run[..len]);
@@ -249,18 +284,26 @@ impl HalfEdgeRuns {
     }
 }
 
-/// Sort a short run in place (per-vertex runs hold about six half-edges).
-fn insertion_sort(run: &mut [(u32, u32)]) {
-    for i in 1..run.len() {
-        let x = run[i];
-        let mut j = i;
-        while j > 0 && run[j - 1] > x {
-            run[j] = run[j - 1];
-            j -= 1;
-        }
-        run[j] = x;
+/// Sort a vertex's run in place. Runs hold about six half-edges, where an insertion
+/// sort's every comparison is a coin-toss branch; up to [`RANK_SORT_MAX`] entries each
+/// entry's place is instead counted without branches (its rank: the entries smaller
+/// than it; the `(other, half-edge)` entries are distinct) and it is written there.
+fn sort_run(run: &mut [(u32, u32)]) {
+    if run.len() > RANK_SORT_MAX {
+        run.sort_unstable();
+        return;
     }
+    let mut sorted = [(0u32, 0u32); RANK_SORT_MAX];
+    let key = |&(other, half_edge): &(u32, u32)| (other as u64) << 32 | half_edge as u64;
+    for x in run.iter() {
+        let rank: usize = run.iter().map(|y| (key(y) < key(x)) as usize).sum();
+        sorted[rank] = *x;
+    }
+    run.copy_from_slice(&sorted[..run.len()]);
 }
+
+/// The longest run [`sort_run`] ranks (n² comparisons); longer ones are sorted.
+const RANK_SORT_MAX: usize = 16;
 
 /// Connected components of triangles joined by shared edges. Returns the component of
 /// each triangle (numbered in order of first triangle) and the number of components.

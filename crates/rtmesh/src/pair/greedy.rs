@@ -9,20 +9,21 @@
 //! plainly (a comparison sort of all 3T records): the reference the tests hold the fast
 //! route to.
 //!
-//! The fast route, [`pair_sah`], gives the same pairing (asserted by tests): it finds
-//! twins first with the counting sort of [`HalfEdgeRuns`] (edges come out in ascending
-//! `(first, second)` order, so an edge's rank encodes that part of the key), drops
-//! boundary edges, and radix-sorts only the shared edges on a 64-bit key
-//! `BBSA bits << 32 | edge rank` (positive floats sort as their bits): three passes of
-//! 8-bit digits over the BBSA's significant bits, no per-edge allocation. Cost:
-//! O(T + V) time; about 24 bytes per half-edge of scratch memory. The half-edge table,
-//! the couples and the sort split their work over the rayon pool's threads; the scan,
-//! whose every step depends on the ones before, stays on one.
+//! The fast route, [`pair_sah`], gives the same pairing (asserted by tests) with no
+//! sort at all. Twins come from the counting sort of [`HalfEdgeRuns`] on the smaller
+//! vertex, unsorted within a vertex: its few half-edges are grouped by the larger
+//! vertex with branch-free counts. Then, instead of sorting the couples and scanning
+//! them, the Suitor algorithm ([`super::suitor`]) finds the same matching: the scan's
+//! order is a strict total order on couples, and under one the greedy matching is the
+//! unique locally dominant one. Cost: O(T + V) time; 4 bytes per half-edge for the runs,
+//! 4 for the couples and 20 per triangle for the matching. Runs and couples split
+//! their work over the rayon pool's threads; the matching stays on one.
 
+use super::suitor::{match_greedily, Couples, ExtraCouple, NO_COUPLE, SHARED_BY_MORE};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{HalfEdgeRuns, TriMesh};
-use crate::pages::vec_on_huge_pages;
-use crate::radix::sort_u64_by_bits;
+use crate::pages::filled_on_huge_pages;
+use crate::radix::SharedSlice;
 use rayon::prelude::*;
 
 /// One record of the paper's half-edge table.
@@ -120,102 +121,116 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
     Pairing::from_partners(&partner)
 }
 
-/// The same pairing as [`pair_sah_reference`], fast: twins first, then a radix sort of
-/// the shared edges only.
+/// The same pairing as [`pair_sah_reference`], fast: twins from the counting sort of
+/// [`HalfEdgeRuns`], then the Suitor algorithm instead of a sort and a scan.
 ///
-/// Each shared edge yields its candidate couples (neighbouring active triangles in
-/// table order that traverse it in opposite directions) while the edges are walked in
-/// vertex order, where the mesh's own locality keeps the reads in cache. Records
-/// `BBSA bits << 32 | couple index` go through the sort (8 bytes each: the sort is
-/// bound by memory traffic), and the scan prefetches the couples it will read.
+/// A couple's key is `[BBSA bits, first vertex, second vertex, rank on its edge]`
+/// (most significant first): the table's sort key, and for the couples of one edge of
+/// three or more half-edges, the earlier couple in table order ranks higher. Keys are
+/// distinct, so the locally dominant matching Suitor finds is the scan's.
 pub fn pair_sah(mesh: &TriMesh) -> Pairing {
-    let runs = HalfEdgeRuns::build(mesh);
-    let active = ActiveTriangles::new(mesh);
-    let is_active: Vec<bool> = (0..mesh.triangle_count())
-        .into_par_iter()
-        .map(|t| active.get(t))
-        .collect();
-    // Blocks of vertices in parallel, each with its records (couple indices local to
-    // the block) and couples, concatenated in vertex order below.
-    let mut blocks: Vec<(Vec<u64>, Vec<[u32; 2]>)> =
-        HalfEdgeRuns::vertex_blocks(runs.vertex_count())
-            .into_par_iter()
-            .map(|vertices| shared_edge_couples(mesh, &runs, &is_active, vertices))
-            .collect();
-    let (mut records, mut all_couples) = blocks.remove(0);
-    for (block_records, block_couples) in &blocks {
-        let base = all_couples.len() as u64;
-        records.extend(block_records.iter().map(|&r| r + base));
-        all_couples.extend_from_slice(block_couples);
-    }
-    drop(blocks);
-    // Stable ascending by BBSA keeps ascending (first, second) among equal areas;
-    // walked backwards this is the table's descending [BBSA, first, second] order.
-    sort_u64_by_bits(&mut records, 32, 64);
-    // The scan's random reads go to a bitset of taken triangles (it stays in cache,
-    // where a partner array would not) and to couples prefetched ahead.
-    let mut taken = vec![0u64; mesh.triangle_count().div_ceil(64)];
-    let is_taken = |taken: &[u64], t: u32| taken[(t / 64) as usize] >> (t % 64) & 1 != 0;
-    let mut partner = vec![UNPAIRED; mesh.triangle_count()];
-    const PREFETCH_DISTANCE: usize = 16;
-    for (i, &record) in records.iter().enumerate().rev() {
-        if let Some(j) = i.checked_sub(PREFETCH_DISTANCE) {
-            crate::prefetch(&all_couples[records[j] as u32 as usize]);
-        }
-        let [a, b] = all_couples[record as u32 as usize];
-        if !is_taken(&taken, a) && !is_taken(&taken, b) {
-            taken[(a / 64) as usize] |= 1 << (a % 64);
-            taken[(b / 64) as usize] |= 1 << (b % 64);
-            partner[a as usize] = b;
-            partner[b as usize] = a;
-        }
-    }
-    Pairing::from_partners(&partner)
+    let finite: Vec<bool> = mesh.positions.par_iter().map(|p| p.is_finite()).collect();
+    let runs = HalfEdgeRuns::unsorted(
+        mesh,
+        |t| {
+            let [a, b, c] = mesh.triangles[t].map(|v| finite[v as usize]);
+            a & b & c
+        },
+        |_, _, h| h,
+    );
+    let couples = couples_of(mesh, &runs);
+    match_greedily(&couples, |t| {
+        let tri = mesh.triangles[t];
+        let corners = tri.map(|v| mesh.positions[v as usize]);
+        std::array::from_fn(|k| {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            let bbsa = edge_bbsa(corners[k], corners[(k + 1) % 3]);
+            couple_key(bbsa, a.min(b), a.max(b), 0)
+        })
+    })
 }
 
-/// The couples of the shared edges whose smaller vertex is in `vertices` (neighbouring
-/// active half-edges in table order that traverse the edge in opposite directions),
-/// and one record `BBSA bits << 32 | couple index` per couple. An edge's couples are
-/// listed last-first, as the scan walks the sorted records backwards.
-fn shared_edge_couples(
-    mesh: &TriMesh,
-    runs: &HalfEdgeRuns,
-    is_active: &[bool],
-    vertices: std::ops::Range<usize>,
-) -> (Vec<u64>, Vec<[u32; 2]>) {
-    // About half the half-edges are edges, and on a closed mesh every edge is shared.
-    let capacity = runs.half_edge_count_of(&vertices) / 2;
-    let mut records: Vec<u64> = vec_on_huge_pages(capacity);
-    let mut all_couples: Vec<[u32; 2]> = vec_on_huge_pages(capacity);
-    let mut couples: Vec<[u32; 2]> = Vec::with_capacity(4);
-    runs.for_each_edge_of(vertices, |first, second, half_edges| {
-        if half_edges.len() < 2 {
-            return;
-        }
-        couples.clear();
-        let mut previous: Option<u32> = None;
-        for &(_, h) in half_edges.iter().filter(|s| is_active[(s.1 / 3) as usize]) {
-            if let Some(g) = previous {
-                let (a, b) = (g / 3, h / 3);
-                let starts_at_first =
-                    |h: u32, t: u32| mesh.triangles[t as usize][(h % 3) as usize] == first;
-                if starts_at_first(g, a) != starts_at_first(h, b) {
-                    couples.push([a, b]);
+/// The key of the couple of rank `rank` (0 on an edge of two half-edges) on edge
+/// `(first, second)` with box area `bbsa`: above 0, as `first < second`.
+#[inline]
+fn couple_key(bbsa: f32, first: u32, second: u32, rank: u32) -> u128 {
+    (bbsa.to_bits() as u128) << 96 | (first as u128) << 64 | (second as u128) << 32 | rank as u128
+}
+
+/// The couples of every active triangle: for each edge, its neighbouring half-edges in
+/// table order (ascending id) that traverse it in opposite directions. Vertex blocks in
+/// parallel; every half-edge is in one vertex's run, so blocks write disjoint slots.
+fn couples_of(mesh: &TriMesh, runs: &HalfEdgeRuns<u32>) -> Couples {
+    let mut across = filled_on_huge_pages(3 * mesh.triangle_count(), NO_COUPLE);
+    let destination = SharedSlice(across.as_mut_ptr());
+    let destination = &destination;
+    let extras: Vec<Vec<ExtraCouple>> = HalfEdgeRuns::vertex_blocks(runs.vertex_count())
+        .into_par_iter()
+        .map(|vertices| {
+            let mut extra = Vec::new();
+            // A run's larger vertices, and whether each half-edge starts at `first`.
+            let (mut seconds, mut starts_at_first) = (Vec::new(), Vec::new());
+            for first in vertices {
+                let run = runs.run(first);
+                seconds.clear();
+                starts_at_first.clear();
+                for &h in run {
+                    let tri = mesh.triangles[(h / 3) as usize];
+                    let (a, b) = (tri[(h % 3) as usize], tri[(h % 3 + 1) as usize % 3]);
+                    seconds.push(a.max(b));
+                    starts_at_first.push(a < b);
+                }
+                for (i, &second) in seconds.iter().enumerate() {
+                    // How many half-edges of the run lie on this edge, and (when there
+                    // are two) where the other one is; counted without branches.
+                    let (mut count, mut index_sum) = (0, 0);
+                    for (j, &other) in seconds.iter().enumerate() {
+                        let same = (other == second) as usize;
+                        count += same;
+                        index_sum += same * j;
+                    }
+                    // Each half-edge writes its own slot, without a branch: the
+                    // triangle across, when the edge has two half-edges running
+                    // opposite ways, else no couple.
+                    let j = index_sum - i;
+                    let coupled = count == 2 && starts_at_first[i] != starts_at_first[j];
+                    let across_i = if coupled { run[j] / 3 + 1 } else { NO_COUPLE };
+                    if count <= 2 {
+                        // SAFETY: half-edge run[i] belongs to this block only.
+                        unsafe { destination.0.add(run[i] as usize).write(across_i) };
+                    } else if count > 2 && !seconds[..i].contains(&second) {
+                        let on_edge: Vec<usize> =
+                            (i..run.len()).filter(|&j| seconds[j] == second).collect();
+                        let bbsa =
+                            edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
+                        for (rank, w) in on_edge.windows(2).enumerate() {
+                            if starts_at_first[w[0]] != starts_at_first[w[1]] {
+                                let rank = (on_edge.len() - 1 - rank) as u32;
+                                let key = couple_key(bbsa, first as u32, second, rank);
+                                let (a, b) = (run[w[0]] / 3, run[w[1]] / 3);
+                                extra.push(ExtraCouple {
+                                    triangle: a,
+                                    neighbour: b,
+                                    key,
+                                });
+                                extra.push(ExtraCouple {
+                                    triangle: b,
+                                    neighbour: a,
+                                    key,
+                                });
+                            }
+                        }
+                        for &j in &on_edge {
+                            // SAFETY: as above.
+                            unsafe { destination.0.add(run[j] as usize).write(SHARED_BY_MORE) };
+                        }
+                    }
                 }
             }
-            previous = Some(h);
-        }
-        if couples.is_empty() {
-            return;
-        }
-        let bbsa = edge_bbsa(
-            mesh.positions[first as usize],
-            mesh.positions[second as usize],
-        );
-        for &couple in couples.iter().rev() {
-            records.push((bbsa.to_bits() as u64) << 32 | all_couples.len() as u64);
-            all_couples.push(couple);
-        }
-    });
-    (records, all_couples)
+            extra
+        })
+        .collect();
+    let mut extra = extras.concat();
+    extra.sort_unstable_by_key(|e| e.triangle);
+    Couples { across, extra }
 }

@@ -28,6 +28,7 @@
 pub mod compressed;
 pub mod greedy;
 pub mod matching;
+mod suitor;
 pub mod window;
 
 use crate::geom::Aabb;

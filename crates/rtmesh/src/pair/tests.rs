@@ -293,3 +293,18 @@ fn parallel_parts_pair_like_one_thread() {
         );
     }
 }
+
+/// On a regular grid every diagonal has one box area and every other edge area 0, so
+/// the order between couples rests on the vertex ids alone: the Suitor matching must
+/// still be the scan's, on the grid and on the grid with its axes turned.
+#[test]
+fn tied_edge_areas_pair_like_the_published_procedure() {
+    for mesh in [
+        crate::scenes::quad_grid(40),
+        crate::scenes::rotated_grid(40),
+    ] {
+        let fast = pair_sah(&mesh);
+        assert_eq!(fast, pair_sah_reference(&mesh));
+        assert!(fast.pair_ratio() > 0.85, "{}", fast.pair_ratio());
+    }
+}
