@@ -10,20 +10,18 @@
 //! route to.
 //!
 //! The fast route, [`pair_sah`], gives the same pairing (asserted by tests) with no
-//! sort at all. Twins come from the counting sort of [`HalfEdgeRuns`] on the smaller
+//! sort at all. Twins come from the counting sort of `HalfEdgeRuns` on the smaller
 //! vertex, unsorted within a vertex: its few half-edges are grouped by the larger
 //! vertex with branch-free counts. Then, instead of sorting the couples and scanning
-//! them, the Suitor algorithm ([`super::suitor`]) finds the same matching: the scan's
+//! them, the Suitor algorithm (module `suitor`) finds the same matching: the scan's
 //! order is a strict total order on couples, and under one the greedy matching is the
 //! unique locally dominant one. Cost: O(T + V) time; 4 bytes per half-edge for the runs,
 //! 4 for the couples and 20 per triangle for the matching. Runs and couples split
 //! their work over the rayon pool's threads; the matching stays on one.
 
-use super::suitor::{match_greedily, Couples, ExtraCouple, NO_COUPLE, SHARED_BY_MORE};
+use super::suitor::{match_greedily, Couples};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{HalfEdgeRuns, TriMesh};
-use crate::pages::filled_on_huge_pages;
-use crate::radix::SharedSlice;
 use rayon::prelude::*;
 
 /// One record of the paper's half-edge table.
@@ -122,7 +120,7 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
 }
 
 /// The same pairing as [`pair_sah_reference`], fast: twins from the counting sort of
-/// [`HalfEdgeRuns`], then the Suitor algorithm instead of a sort and a scan.
+/// `HalfEdgeRuns`, then the Suitor algorithm instead of a sort and a scan.
 ///
 /// A couple's key is `[BBSA bits, first vertex, second vertex, rank on its edge]`
 /// (most significant first): the table's sort key, and for the couples of one edge of
@@ -130,15 +128,32 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
 /// distinct, so the locally dominant matching Suitor finds is the scan's.
 pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     let finite: Vec<bool> = mesh.positions.par_iter().map(|p| p.is_finite()).collect();
-    let runs = HalfEdgeRuns::unsorted(
+    let runs = HalfEdgeRuns::bucketed(
         mesh,
+        mesh.positions.len(),
         |t| {
             let [a, b, c] = mesh.triangles[t].map(|v| finite[v as usize]);
             a & b & c
         },
-        |_, _, h| h,
+        |smaller, _, h| (smaller, h),
     );
-    let couples = couples_of(mesh, &runs);
+    // A half-edge's edge in its smaller vertex's run is its larger vertex, and two
+    // half-edges of one edge couple when one starts at the smaller vertex and one not.
+    let couples = Couples::from_runs(
+        mesh.triangle_count(),
+        &runs,
+        |first, h| {
+            let tri = mesh.triangles[(h / 3) as usize];
+            let (a, b) = (tri[(h % 3) as usize], tri[(h % 3 + 1) as usize % 3]);
+            debug_assert_eq!(a.min(b) as usize, first);
+            (a.max(b), a < b)
+        },
+        |starts_at_first, other| starts_at_first != other,
+        |first, &second, rank| {
+            let bbsa = edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
+            couple_key(bbsa, first as u32, second, rank)
+        },
+    );
     match_greedily(&couples, |t| {
         let tri = mesh.triangles[t];
         let corners = tri.map(|v| mesh.positions[v as usize]);
@@ -155,82 +170,4 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
 #[inline]
 fn couple_key(bbsa: f32, first: u32, second: u32, rank: u32) -> u128 {
     (bbsa.to_bits() as u128) << 96 | (first as u128) << 64 | (second as u128) << 32 | rank as u128
-}
-
-/// The couples of every active triangle: for each edge, its neighbouring half-edges in
-/// table order (ascending id) that traverse it in opposite directions. Vertex blocks in
-/// parallel; every half-edge is in one vertex's run, so blocks write disjoint slots.
-fn couples_of(mesh: &TriMesh, runs: &HalfEdgeRuns<u32>) -> Couples {
-    let mut across = filled_on_huge_pages(3 * mesh.triangle_count(), NO_COUPLE);
-    let destination = SharedSlice(across.as_mut_ptr());
-    let destination = &destination;
-    let extras: Vec<Vec<ExtraCouple>> = HalfEdgeRuns::vertex_blocks(runs.vertex_count())
-        .into_par_iter()
-        .map(|vertices| {
-            let mut extra = Vec::new();
-            // A run's larger vertices, and whether each half-edge starts at `first`.
-            let (mut seconds, mut starts_at_first) = (Vec::new(), Vec::new());
-            for first in vertices {
-                let run = runs.run(first);
-                seconds.clear();
-                starts_at_first.clear();
-                for &h in run {
-                    let tri = mesh.triangles[(h / 3) as usize];
-                    let (a, b) = (tri[(h % 3) as usize], tri[(h % 3 + 1) as usize % 3]);
-                    seconds.push(a.max(b));
-                    starts_at_first.push(a < b);
-                }
-                for (i, &second) in seconds.iter().enumerate() {
-                    // How many half-edges of the run lie on this edge, and (when there
-                    // are two) where the other one is; counted without branches.
-                    let (mut count, mut index_sum) = (0, 0);
-                    for (j, &other) in seconds.iter().enumerate() {
-                        let same = (other == second) as usize;
-                        count += same;
-                        index_sum += same * j;
-                    }
-                    // Each half-edge writes its own slot, without a branch: the
-                    // triangle across, when the edge has two half-edges running
-                    // opposite ways, else no couple.
-                    let j = index_sum - i;
-                    let coupled = count == 2 && starts_at_first[i] != starts_at_first[j];
-                    let across_i = if coupled { run[j] / 3 + 1 } else { NO_COUPLE };
-                    if count <= 2 {
-                        // SAFETY: half-edge run[i] belongs to this block only.
-                        unsafe { destination.0.add(run[i] as usize).write(across_i) };
-                    } else if count > 2 && !seconds[..i].contains(&second) {
-                        let on_edge: Vec<usize> =
-                            (i..run.len()).filter(|&j| seconds[j] == second).collect();
-                        let bbsa =
-                            edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
-                        for (rank, w) in on_edge.windows(2).enumerate() {
-                            if starts_at_first[w[0]] != starts_at_first[w[1]] {
-                                let rank = (on_edge.len() - 1 - rank) as u32;
-                                let key = couple_key(bbsa, first as u32, second, rank);
-                                let (a, b) = (run[w[0]] / 3, run[w[1]] / 3);
-                                extra.push(ExtraCouple {
-                                    triangle: a,
-                                    neighbour: b,
-                                    key,
-                                });
-                                extra.push(ExtraCouple {
-                                    triangle: b,
-                                    neighbour: a,
-                                    key,
-                                });
-                            }
-                        }
-                        for &j in &on_edge {
-                            // SAFETY: as above.
-                            unsafe { destination.0.add(run[j] as usize).write(SHARED_BY_MORE) };
-                        }
-                    }
-                }
-            }
-            extra
-        })
-        .collect();
-    let mut extra = extras.concat();
-    extra.sort_unstable_by_key(|e| e.triangle);
-    Couples { across, extra }
 }

@@ -13,39 +13,137 @@
 //! Cost: O(T) proposals in practice (O(E · max degree) at worst), 20 bytes per
 //! triangle.
 //!
-//! The dual graph is given per side of every triangle ([`Couples`]): the triangle across
-//! it, or a mark that the side's edge has three or more half-edges, whose couples are
-//! listed apart with their keys ([`ExtraCouple`]). Keys are `u128`s from the pairing
-//! method, computed when a triangle proposes.
+//! The dual graph is kept per side of every triangle ([`Couples`], built from runs of
+//! half-edges that hold every edge whole): the triangle across it, or a mark that the
+//! side's edge has three or more half-edges, whose couples are listed apart with their
+//! keys ([`ExtraCouple`]). Keys are `u128`s from the pairing method, computed when a
+//! triangle proposes.
 
 use super::Pairing;
+use crate::mesh::HalfEdgeRuns;
 use crate::pages::filled_on_huge_pages;
+use crate::radix::SharedSlice;
+use rayon::prelude::*;
 
 /// `Couples::across` value of a side whose edge has no couple (the slot's default).
-pub(super) const NO_COUPLE: u32 = 0;
+const NO_COUPLE: u32 = 0;
 /// `Couples::across` value of a side whose edge has three or more half-edges: its
 /// couples are in [`Couples::extra`].
-pub(super) const SHARED_BY_MORE: u32 = u32::MAX;
+const SHARED_BY_MORE: u32 = u32::MAX;
 
 /// The couples (pairable neighbours across an edge) of every triangle.
 pub(super) struct Couples {
     /// For half-edge `3t + k` (side `k` of triangle `t`): 1 + the triangle it couples
     /// with, [`NO_COUPLE`] or [`SHARED_BY_MORE`].
-    pub(super) across: Vec<u32>,
+    across: Vec<u32>,
     /// The couples on edges of three or more half-edges, once from each triangle,
     /// sorted by triangle.
-    pub(super) extra: Vec<ExtraCouple>,
+    extra: Vec<ExtraCouple>,
+}
+
+impl Couples {
+    /// The couples of half-edges bucketed so that all half-edges of an edge share a
+    /// run (half-edge ids ascending, as in the pairing table). In run `r`,
+    /// `edge_of(r, h)` names half-edge `h`'s edge and gives a token `d`; two neighbouring
+    /// half-edges of one edge (in run order) couple when `couples(d, d')` and they are
+    /// of different triangles. An edge with three or more half-edges lists its couples
+    /// in [`Couples::extra`], the `i`-th in run order with key
+    /// `extra_key(r, edge, n - 1 - i)` for `n` half-edges, so that earlier couples rank
+    /// higher. Runs in parallel blocks: every half-edge is in one run, so blocks write
+    /// disjoint slots.
+    pub(super) fn from_runs<E: Copy + PartialEq + Send, D: Copy + Send>(
+        triangle_count: usize,
+        runs: &HalfEdgeRuns<u32>,
+        edge_of: impl Fn(usize, u32) -> (E, D) + Sync,
+        couples: impl Fn(D, D) -> bool + Sync,
+        extra_key: impl Fn(usize, &E, u32) -> u128 + Sync,
+    ) -> Self {
+        let mut across = filled_on_huge_pages(3 * triangle_count, NO_COUPLE);
+        let destination = SharedSlice(across.as_mut_ptr());
+        let destination = &destination;
+        let extras: Vec<Vec<ExtraCouple>> = HalfEdgeRuns::vertex_blocks(runs.vertex_count())
+            .into_par_iter()
+            .map(|block| {
+                let mut extra = Vec::new();
+                let (mut edges, mut tokens) = (Vec::new(), Vec::new());
+                for r in block {
+                    let run = runs.run(r);
+                    edges.clear();
+                    tokens.clear();
+                    for &h in run {
+                        let (edge, token) = edge_of(r, h);
+                        edges.push(edge);
+                        tokens.push(token);
+                    }
+                    let coupled = |i: usize, j: usize| {
+                        run[i] / 3 != run[j] / 3 && couples(tokens[i], tokens[j])
+                    };
+                    for (i, edge) in edges.iter().enumerate() {
+                        // How many half-edges of the run lie on this edge, and (when
+                        // there are two) where the other one is; counted without
+                        // branches.
+                        let (mut count, mut index_sum) = (0, 0);
+                        for (j, other) in edges.iter().enumerate() {
+                            let same = (other == edge) as usize;
+                            count += same;
+                            index_sum += same * j;
+                        }
+                        // Each half-edge writes its own slot, without a branch: the
+                        // triangle across, or no couple.
+                        let j = index_sum - i;
+                        let across_i = if count == 2 && coupled(i, j) {
+                            run[j] / 3 + 1
+                        } else {
+                            NO_COUPLE
+                        };
+                        if count <= 2 {
+                            // SAFETY: half-edge run[i] belongs to this block only.
+                            unsafe { destination.0.add(run[i] as usize).write(across_i) };
+                        } else if !edges[..i].contains(edge) {
+                            let on_edge: Vec<usize> =
+                                (i..run.len()).filter(|&j| edges[j] == *edge).collect();
+                            for (rank, w) in on_edge.windows(2).enumerate() {
+                                if coupled(w[0], w[1]) {
+                                    let rank = (on_edge.len() - 1 - rank) as u32;
+                                    let key = extra_key(r, edge, rank);
+                                    let (a, b) = (run[w[0]] / 3, run[w[1]] / 3);
+                                    extra.push(ExtraCouple {
+                                        triangle: a,
+                                        neighbour: b,
+                                        key,
+                                    });
+                                    extra.push(ExtraCouple {
+                                        triangle: b,
+                                        neighbour: a,
+                                        key,
+                                    });
+                                }
+                            }
+                            for &j in &on_edge {
+                                // SAFETY: as above.
+                                unsafe { destination.0.add(run[j] as usize).write(SHARED_BY_MORE) };
+                            }
+                        }
+                    }
+                }
+                extra
+            })
+            .collect();
+        let mut extra = extras.concat();
+        extra.sort_unstable_by_key(|e| e.triangle);
+        Couples { across, extra }
+    }
 }
 
 /// A couple on an edge of three or more half-edges, seen from `triangle`.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct ExtraCouple {
+struct ExtraCouple {
     /// The proposing triangle.
-    pub(super) triangle: u32,
+    triangle: u32,
     /// The triangle across the edge.
-    pub(super) neighbour: u32,
+    neighbour: u32,
     /// The couple's key.
-    pub(super) key: u128,
+    key: u128,
 }
 
 /// The greedy matching of `couples` by descending key, where `side_keys(t)` gives the
