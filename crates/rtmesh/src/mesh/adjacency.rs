@@ -112,15 +112,14 @@ pub(crate) struct HalfEdgeRuns<E = (u32, u32)> {
 
 impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
     /// Counting sort of the half-edges of the valid triangles (indices in range, three
-    /// distinct vertices) for which `include(t)` holds into `bucket_count` runs:
-    /// `place(smaller, larger, half-edge id)` gives a half-edge's run and entry (the
-    /// smaller vertex's run, for the runs of an edge table). Within a run, half-edge ids
-    /// ascend. Parts of the triangles on the pool's threads.
-    pub(crate) fn bucketed(
+    /// distinct vertices) for which `include(t)` holds, on their smaller vertex, as
+    /// entries `entry(larger, half-edge id)`; within a vertex's run, half-edge ids
+    /// ascend and larger vertices are in no order. Parts of the triangles on the
+    /// pool's threads.
+    pub(crate) fn unsorted(
         mesh: &TriMesh,
-        bucket_count: usize,
         include: impl Fn(usize) -> bool + Sync,
-        place: impl Fn(u32, u32, u32) -> (u32, E) + Sync,
+        entry: impl Fn(u32, u32) -> E + Sync,
     ) -> Self {
         let vertex_count = mesh.positions.len();
         // `&`, not `&&`: nearly every triangle is valid, and one test of all six
@@ -147,13 +146,11 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
             .par_chunks(part_len)
             .enumerate()
             .map(|(p, part)| {
-                let mut count = vec![0u32; bucket_count];
+                let mut count = vec![0u32; vertex_count];
                 for (i, t) in part.iter().enumerate() {
                     if included(p, i, t) {
                         for k in 0..3 {
-                            let (a, b) = (t[k], t[(k + 1) % 3]);
-                            let half_edge = ((p * part_len + i) * 3 + k) as u32;
-                            count[place(a.min(b), a.max(b), half_edge).0 as usize] += 1;
+                            count[t[k].min(t[(k + 1) % 3]) as usize] += 1;
                         }
                     }
                 }
@@ -161,9 +158,9 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
             })
             .collect();
         // Each part's cursor is where its run starts within the vertex's run.
-        let mut start = vec![0u32; bucket_count + 1];
+        let mut start = vec![0u32; vertex_count + 1];
         let mut sum = 0u32;
-        for v in 0..bucket_count {
+        for v in 0..vertex_count {
             start[v] = sum;
             for cursor in cursors.iter_mut() {
                 let count = cursor[v];
@@ -171,8 +168,8 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
                 sum += count;
             }
         }
-        start[bucket_count] = sum;
-        // Pass 2: scatter (larger vertex, half-edge id) into each vertex's slots.
+        start[vertex_count] = sum;
+        // Pass 2: scatter each half-edge's entry into its smaller vertex's slots.
         let half_edge_count = sum as usize;
         let mut slots: Vec<E> = crate::pages::vec_on_huge_pages(half_edge_count);
         let destination = crate::radix::SharedSlice(slots.as_mut_ptr());
@@ -189,11 +186,15 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
                     for k in 0..3 {
                         let (a, b) = (t[k], t[(k + 1) % 3]);
                         let half_edge = ((p * part_len + i) * 3 + k) as u32;
-                        let (bucket, entry) = place(a.min(b), a.max(b), half_edge);
-                        let c = &mut cursor[bucket as usize];
+                        let c = &mut cursor[a.min(b) as usize];
                         // SAFETY: the counts give every half-edge of every part its
                         // own slot below `half_edge_count`.
-                        unsafe { destination.0.add(*c as usize).write(entry) };
+                        unsafe {
+                            destination
+                                .0
+                                .add(*c as usize)
+                                .write(entry(a.max(b), half_edge))
+                        };
                         *c += 1;
                     }
                 }
@@ -230,12 +231,7 @@ impl HalfEdgeRuns {
     /// The runs of the valid triangles' half-edges (indices in range, three distinct
     /// vertices), each sorted by (larger vertex, half-edge id).
     pub(crate) fn build(mesh: &TriMesh) -> Self {
-        let mut runs = HalfEdgeRuns::bucketed(
-            mesh,
-            mesh.positions.len(),
-            |_| true,
-            |smaller, larger, h| (smaller, (larger, h)),
-        );
+        let mut runs = HalfEdgeRuns::unsorted(mesh, |_| true, |larger, h| (larger, h));
         runs.sort_runs();
         runs
     }

@@ -128,32 +128,18 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
 /// distinct, so the locally dominant matching Suitor finds is the scan's.
 pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     let finite: Vec<bool> = mesh.positions.par_iter().map(|p| p.is_finite()).collect();
-    let runs = HalfEdgeRuns::bucketed(
+    let runs = HalfEdgeRuns::unsorted(
         mesh,
-        mesh.positions.len(),
         |t| {
             let [a, b, c] = mesh.triangles[t].map(|v| finite[v as usize]);
             a & b & c
         },
-        |smaller, _, h| (smaller, h),
+        |_, h| h,
     );
-    // A half-edge's edge in its smaller vertex's run is its larger vertex, and two
-    // half-edges of one edge couple when one starts at the smaller vertex and one not.
-    let couples = Couples::from_runs(
-        mesh.triangle_count(),
-        &runs,
-        |first, h| {
-            let tri = mesh.triangles[(h / 3) as usize];
-            let (a, b) = (tri[(h % 3) as usize], tri[(h % 3 + 1) as usize % 3]);
-            debug_assert_eq!(a.min(b) as usize, first);
-            (a.max(b), a < b)
-        },
-        |starts_at_first, other| starts_at_first != other,
-        |first, &second, rank| {
-            let bbsa = edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
-            couple_key(bbsa, first as u32, second, rank)
-        },
-    );
+    let couples = Couples::from_runs(mesh, &runs, |first, second, rank| {
+        let bbsa = edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
+        couple_key(bbsa, first as u32, second, rank)
+    });
     match_greedily(&couples, |t| {
         let tri = mesh.triangles[t];
         let corners = tri.map(|v| mesh.positions[v as usize]);

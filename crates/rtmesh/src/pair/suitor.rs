@@ -20,7 +20,7 @@
 //! triangle proposes.
 
 use super::Pairing;
-use crate::mesh::HalfEdgeRuns;
+use crate::mesh::{HalfEdgeRuns, TriMesh};
 use crate::pages::filled_on_huge_pages;
 use crate::radix::SharedSlice;
 use rayon::prelude::*;
@@ -42,22 +42,19 @@ pub(super) struct Couples {
 }
 
 impl Couples {
-    /// The couples of half-edges bucketed so that all half-edges of an edge share a
-    /// run (half-edge ids ascending, as in the pairing table). In run `r`,
-    /// `edge_of(r, h)` names half-edge `h`'s edge and gives a token `d`; two neighbouring
-    /// half-edges of one edge (in run order) couple when `couples(d, d')` and they are
-    /// of different triangles. An edge with three or more half-edges lists its couples
-    /// in [`Couples::extra`], the `i`-th in run order with key
-    /// `extra_key(r, edge, n - 1 - i)` for `n` half-edges, so that earlier couples rank
-    /// higher. Runs in parallel blocks: every half-edge is in one run, so blocks write
-    /// disjoint slots.
-    pub(super) fn from_runs<E: Copy + PartialEq + Send, D: Copy + Send>(
-        triangle_count: usize,
+    /// The couples of `mesh`'s half-edges in `runs` (per smaller vertex, half-edge ids
+    /// ascending, as in the pairing table): two neighbouring half-edges of one edge
+    /// (in run order) couple when they run opposite ways. An edge with three or more
+    /// half-edges lists its couples in [`Couples::extra`], the `i`-th in run order with
+    /// key `extra_key(first, second, n - 1 - i)` for `n` half-edges, so that earlier
+    /// couples rank higher. Blocks of vertices in parallel: every half-edge is in one
+    /// run, so blocks write disjoint slots.
+    pub(super) fn from_runs(
+        mesh: &TriMesh,
         runs: &HalfEdgeRuns<u32>,
-        edge_of: impl Fn(usize, u32) -> (E, D) + Sync,
-        couples: impl Fn(D, D) -> bool + Sync,
-        extra_key: impl Fn(usize, &E, u32) -> u128 + Sync,
+        extra_key: impl Fn(usize, u32, u32) -> u128 + Sync,
     ) -> Self {
+        let triangle_count = mesh.triangle_count();
         let mut across = filled_on_huge_pages(3 * triangle_count, NO_COUPLE);
         let destination = SharedSlice(across.as_mut_ptr());
         let destination = &destination;
@@ -65,19 +62,20 @@ impl Couples {
             .into_par_iter()
             .map(|block| {
                 let mut extra = Vec::new();
-                let (mut edges, mut tokens) = (Vec::new(), Vec::new());
+                let (mut edges, mut starts_at_first) = (Vec::new(), Vec::new());
                 for r in block {
                     let run = runs.run(r);
+                    // Each half-edge's larger vertex, and whether it starts at the
+                    // smaller one.
                     edges.clear();
-                    tokens.clear();
+                    starts_at_first.clear();
                     for &h in run {
-                        let (edge, token) = edge_of(r, h);
-                        edges.push(edge);
-                        tokens.push(token);
+                        let tri = mesh.triangles[(h / 3) as usize];
+                        let (a, b) = (tri[(h % 3) as usize], tri[(h % 3 + 1) as usize % 3]);
+                        edges.push(a.max(b));
+                        starts_at_first.push(a < b);
                     }
-                    let coupled = |i: usize, j: usize| {
-                        run[i] / 3 != run[j] / 3 && couples(tokens[i], tokens[j])
-                    };
+                    let coupled = |i: usize, j: usize| starts_at_first[i] != starts_at_first[j];
                     for (i, edge) in edges.iter().enumerate() {
                         // How many half-edges of the run lie on this edge, and (when
                         // there are two) where the other one is; counted without
@@ -105,7 +103,7 @@ impl Couples {
                             for (rank, w) in on_edge.windows(2).enumerate() {
                                 if coupled(w[0], w[1]) {
                                     let rank = (on_edge.len() - 1 - rank) as u32;
-                                    let key = extra_key(r, edge, rank);
+                                    let key = extra_key(r, *edge, rank);
                                     let (a, b) = (run[w[0]] / 3, run[w[1]] / 3);
                                     extra.push(ExtraCouple {
                                         triangle: a,
