@@ -364,35 +364,41 @@ impl<L: LeafBlock> SceneAccel<L> {
         self.occluded_with::<AvxNodeTest, C>(ray, counters, leaf)
     }
 
-    /// Closest hit with leaf test `leaf`, AVX node test where the CPU has it.
+    /// Closest hit: where the CPU has AVX, the AVX node test and leaf test `leaf_avx`
+    /// (which may use AVX: it only runs there), elsewhere the portable node test and
+    /// `leaf`.
     #[inline(always)]
     pub(crate) fn intersect_dispatched<C: Counters>(
         &self,
         ray: &Ray,
         counters: &mut C,
         leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
+        leaf_avx: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
     ) -> Hit {
         #[cfg(target_arch = "x86_64")]
         if has_avx() {
             // SAFETY: the CPU has AVX.
-            return unsafe { self.intersect_avx(ray, counters, leaf) };
+            return unsafe { self.intersect_avx(ray, counters, leaf_avx) };
         }
+        let _ = leaf_avx;
         self.intersect_with::<PortableNodeTest, C>(ray, counters, leaf)
     }
 
-    /// Occlusion with leaf test `leaf`, AVX node test where the CPU has it.
+    /// Occlusion, dispatched as [`Self::intersect_dispatched`].
     #[inline(always)]
     pub(crate) fn occluded_dispatched<C: Counters>(
         &self,
         ray: &Ray,
         counters: &mut C,
         leaf: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
+        leaf_avx: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
         if has_avx() {
             // SAFETY: the CPU has AVX.
-            return unsafe { self.occluded_avx(ray, counters, leaf) };
+            return unsafe { self.occluded_avx(ray, counters, leaf_avx) };
         }
+        let _ = leaf_avx;
         self.occluded_with::<PortableNodeTest, C>(ray, counters, leaf)
     }
 }
@@ -415,13 +421,40 @@ impl<L: LeafBlock> Tracer for SceneAccel<L> {
     /// CPU has it, the portable one elsewhere (bit-identical results).
     #[inline]
     fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
-        self.intersect_dispatched(ray, counters, L::intersect_into)
+        self.intersect_dispatched(
+            ray,
+            counters,
+            #[inline(always)]
+            |block: &L, query: &RayQuery, hit: &mut Hit| block.intersect_into(query, hit),
+            #[inline(always)]
+            |block: &L, query: &RayQuery, hit: &mut Hit| {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: `intersect_dispatched` calls this only on CPUs with AVX, from
+                // code compiled with it.
+                return unsafe { block.intersect_into_avx(query, hit) };
+                #[cfg(not(target_arch = "x86_64"))]
+                block.intersect_into(query, hit)
+            },
+        )
     }
 
     /// Whether anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        self.occluded_dispatched(ray, counters, L::occludes)
+        self.occluded_dispatched(
+            ray,
+            counters,
+            #[inline(always)]
+            |block: &L, query: &RayQuery, t_max: f32| block.occludes(query, t_max),
+            #[inline(always)]
+            |block: &L, query: &RayQuery, t_max: f32| {
+                #[cfg(target_arch = "x86_64")]
+                // SAFETY: as in `intersect`.
+                return unsafe { block.occludes_avx(query, t_max) };
+                #[cfg(not(target_arch = "x86_64"))]
+                block.occludes(query, t_max)
+            },
+        )
     }
 }
 
@@ -449,6 +482,7 @@ fn intersect_blas<T: NodeTest, L: LeafBlock, C: Counters>(
         query,
         &mut t_max,
         counters,
+        #[inline(always)]
         |blocks, t_max, counters| {
             let mut found = false;
             for block in blocks {
@@ -471,12 +505,19 @@ fn occluded_blas<T: NodeTest, L: LeafBlock, C: Counters>(
     counters: &mut C,
     leaf: impl Fn(&L, &RayQuery, f32) -> bool,
 ) -> bool {
-    any_hit::<T, _, _>(bvh, query, t_max, counters, |blocks, t_max, counters| {
-        blocks.iter().any(|block| {
-            block.count_tests(counters);
-            leaf(block, query, t_max)
-        })
-    })
+    any_hit::<T, _, _>(
+        bvh,
+        query,
+        t_max,
+        counters,
+        #[inline(always)]
+        |blocks, t_max, counters| {
+            blocks.iter().any(|block| {
+                block.count_tests(counters);
+                leaf(block, query, t_max)
+            })
+        },
+    )
 }
 
 #[cfg(test)]

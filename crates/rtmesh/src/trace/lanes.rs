@@ -28,6 +28,8 @@ pub trait Lanes:
     fn splat(x: f32) -> Self;
     /// Lanes from `values[..WIDTH]`.
     fn load(values: &[f32]) -> Self;
+    /// Lane `i` from `values[i % 4]`: four values repeated across a wider vector.
+    fn load_repeated(values: &[f32; 4]) -> Self;
     /// The lanes as an array (first `WIDTH` entries used).
     fn to_array(self) -> [f32; 8];
     /// `self < rhs` per lane.
@@ -61,6 +63,10 @@ impl Lanes for f32 {
     }
     #[inline(always)]
     fn load(values: &[f32]) -> Self {
+        values[0]
+    }
+    #[inline(always)]
+    fn load_repeated(values: &[f32; 4]) -> Self {
         values[0]
     }
     #[inline(always)]
@@ -122,6 +128,10 @@ macro_rules! wide_lanes {
             #[inline(always)]
             fn load(values: &[f32]) -> Self {
                 $type::new(values[..$width].try_into().expect("one float per lane"))
+            }
+            #[inline(always)]
+            fn load_repeated(values: &[f32; 4]) -> Self {
+                $type::new(std::array::from_fn(|i| values[i % 4]))
             }
             #[inline(always)]
             fn to_array(self) -> [f32; 8] {
@@ -231,6 +241,14 @@ mod avx {
             assert!(values.len() >= 8);
             // SAFETY: as above; 8 floats are readable.
             Avx8(unsafe { _mm256_loadu_ps(values.as_ptr()) })
+        }
+        #[inline(always)]
+        fn load_repeated(values: &[f32; 4]) -> Self {
+            // SAFETY: as above; 4 floats are readable.
+            Avx8(unsafe {
+                let half = _mm_loadu_ps(values.as_ptr());
+                _mm256_set_m128(half, half)
+            })
         }
         #[inline(always)]
         fn to_array(self) -> [f32; 8] {

@@ -141,6 +141,26 @@ pub trait LeafBlock: Primitive + Clone + Send + Sync {
     fn intersect_into(&self, ray: &RayQuery, hit: &mut Hit) -> bool;
     /// Whether anything in the block is hit inside `(t_min, t_max)`.
     fn occludes(&self, ray: &RayQuery, t_max: f32) -> bool;
+    /// [`Self::intersect_into`] for callers compiled with AVX: a block whose test is
+    /// wider than 4 lanes runs it in 256-bit registers here (the same operations, so
+    /// the same hits).
+    ///
+    /// # Safety
+    /// Only call it from code compiled with AVX, on a CPU that has it.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn intersect_into_avx(&self, ray: &RayQuery, hit: &mut Hit) -> bool {
+        self.intersect_into(ray, hit)
+    }
+    /// [`Self::occludes`] for callers compiled with AVX, as [`Self::intersect_into_avx`].
+    ///
+    /// # Safety
+    /// As for [`Self::intersect_into_avx`].
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn occludes_avx(&self, ray: &RayQuery, t_max: f32) -> bool {
+        self.occludes(ray, t_max)
+    }
     /// Count one test of this block.
     fn count_tests<C: Counters>(&self, counters: &mut C);
 }

@@ -503,12 +503,12 @@ impl SceneAccel<Triangle4> {
     /// Closest hit of one ray with intersector `I` in the leaves (single-ray
     /// traversal: the reference for [`Self::intersect_packet`]).
     pub fn intersect_by<I: Intersector, C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
-        self.intersect_dispatched(ray, counters, block_closest::<I>)
+        self.intersect_dispatched(ray, counters, block_closest::<I>, block_closest::<I>)
     }
 
     /// Whether anything blocks one ray, with intersector `I` in the leaves.
     pub fn occluded_by<I: Intersector, C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        self.occluded_dispatched(ray, counters, block_occludes::<I>)
+        self.occluded_dispatched(ray, counters, block_occludes::<I>, block_occludes::<I>)
     }
 
     /// Closest hits of up to 64 rays, traced as a packet with intersector `I` (ray by
