@@ -7,8 +7,9 @@
 //! 32-bit half-edge id: 16 bytes. The BBSA keeps its float order by taking the top 24
 //! bits of its (positive) IEEE bits, a relative precision of 2⁻¹⁵; midpoints are
 //! quantised linearly in the mesh's box. The table is sorted descending by
-//! [BBSA, midpoint] with a radix sort (12 passes of 8 bits, constant digits skipped)
-//! and scanned as in [`super::greedy`].
+//! [BBSA, midpoint] with a radix sort (a most-significant-digit pass into buckets that
+//! fit the cache, then 8-bit passes within each; see [`crate::radix`]) and scanned as
+//! in [`super::greedy`].
 //!
 //! Quantisation can give two different edges one key. A scan that paired them would
 //! pair triangles that do not touch, so a candidate pair must also share the edge's two
@@ -34,10 +35,10 @@ pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
         });
     let field_max = ((1u32 << FIELD_BITS) - 1) as f32;
     let scale = Vec3::splat(field_max) / bounds.extent().max(Vec3::splat(f32::MIN_POSITIVE));
+    // Nearest step, by truncating `x + 0.5` (`f32::round` is a library call on
+    // baseline x86-64); NaN lands on 0.
     let quantise = |x: f32, axis: usize| {
-        (((x - bounds.min[axis]) * scale[axis])
-            .round()
-            .clamp(0.0, field_max)) as u128
+        (((x - bounds.min[axis]) * scale[axis]).clamp(0.0, field_max) + 0.5) as u32 as u128
     };
     let mut records: Vec<u128> = Vec::with_capacity(3 * n);
     for t in 0..n {
