@@ -376,10 +376,11 @@ impl<L: LeafBlock> SceneAccel<L> {
         leaf_avx: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
     ) -> Hit {
         #[cfg(target_arch = "x86_64")]
-        if has_avx() {
+        if super::lanes::has_avx() {
             // SAFETY: the CPU has AVX.
             return unsafe { self.intersect_avx(ray, counters, leaf_avx) };
         }
+        #[cfg(not(target_arch = "x86_64"))]
         let _ = leaf_avx;
         self.intersect_with::<PortableNodeTest, C>(ray, counters, leaf)
     }
@@ -394,25 +395,13 @@ impl<L: LeafBlock> SceneAccel<L> {
         leaf_avx: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
     ) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if has_avx() {
+        if super::lanes::has_avx() {
             // SAFETY: the CPU has AVX.
             return unsafe { self.occluded_avx(ray, counters, leaf_avx) };
         }
+        #[cfg(not(target_arch = "x86_64"))]
         let _ = leaf_avx;
         self.occluded_with::<PortableNodeTest, C>(ray, counters, leaf)
-    }
-}
-
-/// Whether this CPU has AVX (detected once, then a cached flag).
-#[inline(always)]
-fn has_avx() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
     }
 }
 
@@ -428,12 +417,9 @@ impl<L: LeafBlock> Tracer for SceneAccel<L> {
             |block: &L, query: &RayQuery, hit: &mut Hit| block.intersect_into(query, hit),
             #[inline(always)]
             |block: &L, query: &RayQuery, hit: &mut Hit| {
-                #[cfg(target_arch = "x86_64")]
                 // SAFETY: `intersect_dispatched` calls this only on CPUs with AVX, from
                 // code compiled with it.
-                return unsafe { block.intersect_into_avx(query, hit) };
-                #[cfg(not(target_arch = "x86_64"))]
-                block.intersect_into(query, hit)
+                unsafe { block.intersect_into_avx(query, hit) }
             },
         )
     }
@@ -448,11 +434,8 @@ impl<L: LeafBlock> Tracer for SceneAccel<L> {
             |block: &L, query: &RayQuery, t_max: f32| block.occludes(query, t_max),
             #[inline(always)]
             |block: &L, query: &RayQuery, t_max: f32| {
-                #[cfg(target_arch = "x86_64")]
                 // SAFETY: as in `intersect`.
-                return unsafe { block.occludes_avx(query, t_max) };
-                #[cfg(not(target_arch = "x86_64"))]
-                block.occludes(query, t_max)
+                unsafe { block.occludes_avx(query, t_max) }
             },
         )
     }

@@ -143,11 +143,10 @@ pub trait LeafBlock: Primitive + Clone + Send + Sync {
     fn occludes(&self, ray: &RayQuery, t_max: f32) -> bool;
     /// [`Self::intersect_into`] for callers compiled with AVX: a block whose test is
     /// wider than 4 lanes runs it in 256-bit registers here (the same operations, so
-    /// the same hits).
+    /// the same hits). Off x86-64, and by default, the same as `intersect_into`.
     ///
     /// # Safety
-    /// Only call it from code compiled with AVX, on a CPU that has it.
-    #[cfg(target_arch = "x86_64")]
+    /// On x86-64, only call it from code compiled with AVX, on a CPU that has it.
     #[inline(always)]
     unsafe fn intersect_into_avx(&self, ray: &RayQuery, hit: &mut Hit) -> bool {
         self.intersect_into(ray, hit)
@@ -156,7 +155,6 @@ pub trait LeafBlock: Primitive + Clone + Send + Sync {
     ///
     /// # Safety
     /// As for [`Self::intersect_into_avx`].
-    #[cfg(target_arch = "x86_64")]
     #[inline(always)]
     unsafe fn occludes_avx(&self, ray: &RayQuery, t_max: f32) -> bool {
         self.occludes(ray, t_max)
