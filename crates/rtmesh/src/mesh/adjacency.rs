@@ -101,26 +101,20 @@ impl EdgeAdjacency {
 /// vertex whose per-vertex runs are sorted by (larger vertex, half-edge id). Half-edge
 /// `3t + k` is side `(t[k], t[k + 1])` of triangle `t`. Shared by [`EdgeAdjacency`] and
 /// the maximum-matching search ([`crate::pair::matching`]), which walk the edges in
-/// ascending `(min, max)`. The greedy pairing keeps unsorted runs of bare half-edge ids
-/// (`E = u32`): half the memory, and it reads the other vertex from the triangle.
-pub(crate) struct HalfEdgeRuns<E = (u32, u32)> {
+/// ascending `(min, max)`.
+pub(crate) struct HalfEdgeRuns {
     /// `slots[start[v]..start[v + 1]]` are the half-edges whose smaller vertex is `v`.
     start: Vec<u32>,
     /// One entry per half-edge: here (larger vertex, half-edge id).
-    slots: Vec<E>,
+    slots: Vec<(u32, u32)>,
 }
 
-impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
+impl HalfEdgeRuns {
     /// Counting sort of the half-edges of the valid triangles (indices in range, three
-    /// distinct vertices) for which `include(t)` holds, on their smaller vertex, as
-    /// entries `entry(larger, half-edge id)`; within a vertex's run, half-edge ids
-    /// ascend and larger vertices are in no order. Parts of the triangles on the
-    /// pool's threads.
-    pub(crate) fn unsorted(
-        mesh: &TriMesh,
-        include: impl Fn(usize) -> bool + Sync,
-        entry: impl Fn(u32, u32) -> E + Sync,
-    ) -> Self {
+    /// distinct vertices) on their smaller vertex, as entries (larger vertex,
+    /// half-edge id); within a vertex's run, half-edge ids ascend and larger vertices
+    /// are in no order. Parts of the triangles on the pool's threads.
+    fn unsorted(mesh: &TriMesh) -> Self {
         let vertex_count = mesh.positions.len();
         // `&`, not `&&`: nearly every triangle is valid, and one test of all six
         // conditions costs less than six branches.
@@ -139,16 +133,14 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
             .min(mesh.triangles.len() >> 15)
             .max(1);
         let part_len = mesh.triangles.len().div_ceil(parts).max(1);
-        let included = |p: usize, i: usize, t: &[u32; 3]| valid(t) && include(p * part_len + i);
         // Pass 1: count half-edges per smaller vertex, per part.
         let mut cursors: Vec<Vec<u32>> = mesh
             .triangles
             .par_chunks(part_len)
-            .enumerate()
-            .map(|(p, part)| {
+            .map(|part| {
                 let mut count = vec![0u32; vertex_count];
-                for (i, t) in part.iter().enumerate() {
-                    if included(p, i, t) {
+                for t in part {
+                    if valid(t) {
                         for k in 0..3 {
                             count[t[k].min(t[(k + 1) % 3]) as usize] += 1;
                         }
@@ -171,7 +163,7 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
         start[vertex_count] = sum;
         // Pass 2: scatter each half-edge's entry into its smaller vertex's slots.
         let half_edge_count = sum as usize;
-        let mut slots: Vec<E> = crate::pages::vec_on_huge_pages(half_edge_count);
+        let mut slots: Vec<(u32, u32)> = crate::pages::vec_on_huge_pages(half_edge_count);
         let destination = crate::radix::SharedSlice(slots.as_mut_ptr());
         let destination = &destination;
         mesh.triangles
@@ -180,7 +172,7 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
             .enumerate()
             .for_each(|(p, (part, mut cursor))| {
                 for (i, t) in part.iter().enumerate() {
-                    if !included(p, i, t) {
+                    if !valid(t) {
                         continue;
                     }
                     for k in 0..3 {
@@ -189,12 +181,7 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
                         let c = &mut cursor[a.min(b) as usize];
                         // SAFETY: the counts give every half-edge of every part its
                         // own slot below `half_edge_count`.
-                        unsafe {
-                            destination
-                                .0
-                                .add(*c as usize)
-                                .write(entry(a.max(b), half_edge))
-                        };
+                        unsafe { destination.0.add(*c as usize).write((a.max(b), half_edge)) };
                         *c += 1;
                     }
                 }
@@ -206,7 +193,7 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
 
     /// The entries of the half-edges whose smaller vertex is `v`.
     #[inline]
-    pub(crate) fn run(&self, v: usize) -> &[E] {
+    pub(crate) fn run(&self, v: usize) -> &[(u32, u32)] {
         &self.slots[self.start[v] as usize..self.start[v + 1] as usize]
     }
 
@@ -214,12 +201,10 @@ impl<E: Copy + Send + Sync> HalfEdgeRuns<E> {
     pub(crate) fn vertex_count(&self) -> usize {
         self.start.len() - 1
     }
-}
 
-impl HalfEdgeRuns {
     /// Vertex ranges for parallel work: one per pool thread, or one for fewer than
     /// 16k vertices.
-    pub(crate) fn vertex_blocks(vertex_count: usize) -> Vec<std::ops::Range<usize>> {
+    fn vertex_blocks(vertex_count: usize) -> Vec<std::ops::Range<usize>> {
         let blocks = rayon::current_num_threads().min(vertex_count >> 14).max(1);
         let block = vertex_count.div_ceil(blocks).max(1);
         (0..vertex_count)
@@ -231,7 +216,7 @@ impl HalfEdgeRuns {
     /// The runs of the valid triangles' half-edges (indices in range, three distinct
     /// vertices), each sorted by (larger vertex, half-edge id).
     pub(crate) fn build(mesh: &TriMesh) -> Self {
-        let mut runs = HalfEdgeRuns::unsorted(mesh, |_| true, |larger, h| (larger, h));
+        let mut runs = HalfEdgeRuns::unsorted(mesh);
         runs.sort_runs();
         runs
     }

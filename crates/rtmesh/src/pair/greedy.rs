@@ -10,19 +10,18 @@
 //! route to.
 //!
 //! The fast route, [`pair_sah`], gives the same pairing (asserted by tests) with no
-//! sort at all. Twins come from the counting sort of `HalfEdgeRuns` on the smaller
-//! vertex, unsorted within a vertex: its few half-edges are grouped by the larger
-//! vertex with branch-free counts. Then, instead of sorting the couples and scanning
-//! them, the Suitor algorithm (module `suitor`) finds the same matching: the scan's
-//! order is a strict total order on couples, and under one the greedy matching is the
-//! unique locally dominant one. Cost: O(T + V) time; 4 bytes per half-edge for the runs,
-//! 4 for the couples and 20 per triangle for the matching. Runs and couples split
-//! their work over the rayon pool's threads; the matching stays on one.
+//! sort at all. Twins come from a counting sort of the half-edges by blocks of
+//! smaller vertices, then by vertex within a block in cache (module `suitor`). Then,
+//! instead of sorting the couples and scanning them, the Suitor algorithm finds the
+//! same matching: the scan's order is a strict total order on couples, and under one
+//! the greedy matching is the unique locally dominant one. Cost: O(T + V) time; 12
+//! bytes per half-edge for the blocks, 4 for the twins, 1 per triangle for the
+//! matching. The twin search splits its work over the rayon pool's threads; the
+//! matching stays on one.
 
-use super::suitor::{match_greedily, Couples};
+use super::suitor::{match_greedily, Couples, MAX_VERTICES};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
-use crate::mesh::{HalfEdgeRuns, TriMesh};
-use rayon::prelude::*;
+use crate::mesh::TriMesh;
 
 /// One record of the paper's half-edge table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -119,36 +118,35 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
     Pairing::from_partners(&partner)
 }
 
-/// The same pairing as [`pair_sah_reference`], fast: twins from the counting sort of
-/// `HalfEdgeRuns`, then the Suitor algorithm instead of a sort and a scan.
+/// The same pairing as [`pair_sah_reference`], fast: twins found by blocks of vertices,
+/// then the Suitor algorithm instead of a sort and a scan. (Meshes past the fast
+/// route's index limits, 2³¹ − 1 vertices or 2³² half-edges, take the reference.)
 ///
 /// A couple's key is `[BBSA bits, first vertex, second vertex, rank on its edge]`
 /// (most significant first): the table's sort key, and for the couples of one edge of
 /// three or more half-edges, the earlier couple in table order ranks higher. Keys are
 /// distinct, so the locally dominant matching Suitor finds is the scan's.
 pub fn pair_sah(mesh: &TriMesh) -> Pairing {
-    let finite: Vec<bool> = mesh.positions.par_iter().map(|p| p.is_finite()).collect();
-    let runs = HalfEdgeRuns::unsorted(
-        mesh,
-        |t| {
-            let [a, b, c] = mesh.triangles[t].map(|v| finite[v as usize]);
-            a & b & c
-        },
-        |_, h| h,
-    );
-    let couples = Couples::from_runs(mesh, &runs, |first, second, rank| {
-        let bbsa = edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
-        couple_key(bbsa, first as u32, second, rank)
-    });
-    match_greedily(&couples, |t| {
+    if mesh.positions.len() > MAX_VERTICES || 3 * mesh.triangle_count() > u32::MAX as usize {
+        return pair_sah_reference(mesh);
+    }
+    let side_keys = |t: usize| {
         let tri = mesh.triangles[t];
         let corners = tri.map(|v| mesh.positions[v as usize]);
-        std::array::from_fn(|k| {
+        if !corners.iter().all(|c| c.is_finite()) {
+            return None;
+        }
+        Some(std::array::from_fn(|k| {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
             let bbsa = edge_bbsa(corners[k], corners[(k + 1) % 3]);
             couple_key(bbsa, a.min(b), a.max(b), 0)
-        })
-    })
+        }))
+    };
+    let couples = Couples::link(mesh, side_keys, |first, second, rank| {
+        let bbsa = edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
+        couple_key(bbsa, first as u32, second, rank)
+    });
+    match_greedily(couples, |t| side_keys(t).unwrap_or_default())
 }
 
 /// The key of the couple of rank `rank` (0 on an edge of two half-edges) on edge

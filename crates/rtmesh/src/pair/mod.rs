@@ -127,15 +127,35 @@ pub struct Pairing {
 impl Pairing {
     /// From `partner[t]` (the other triangle of `t`'s pair, or [`UNPAIRED`]).
     pub fn from_partners(partner: &[u32]) -> Self {
-        let mut pairing = Pairing::default();
-        for (t, &p) in partner.iter().enumerate() {
-            if p == UNPAIRED {
-                pairing.unpaired.push(t as u32);
-            } else if p as usize > t {
-                pairing.pairs.push([t as u32, p]);
+        Self::from_partner_fn(partner.len(), |t| partner[t])
+    }
+
+    /// From `partner(t)` for `triangle_count` triangles (as in [`Self::from_partners`]).
+    /// Every triangle's id is written to both lists and kept in the one it belongs to:
+    /// whether a triangle is paired, and whether first, is a coin toss that a branch
+    /// would mispredict.
+    pub(crate) fn from_partner_fn(triangle_count: usize, partner: impl Fn(usize) -> u32) -> Self {
+        let mut pairs: Vec<[u32; 2]> = Vec::with_capacity(triangle_count / 2 + 1);
+        let mut unpaired: Vec<u32> = Vec::with_capacity(triangle_count + 1);
+        let (mut pair_count, mut unpaired_count) = (0, 0);
+        {
+            let (pair_slots, unpaired_slots) =
+                (pairs.spare_capacity_mut(), unpaired.spare_capacity_mut());
+            for t in 0..triangle_count {
+                let p = partner(t);
+                pair_slots[pair_count].write([t as u32, p]);
+                unpaired_slots[unpaired_count].write(t as u32);
+                pair_count += ((p != UNPAIRED) & (p as usize > t)) as usize;
+                unpaired_count += (p == UNPAIRED) as usize;
             }
         }
-        pairing
+        // SAFETY: every slot below each count was written.
+        unsafe {
+            pairs.set_len(pair_count);
+            unpaired.set_len(unpaired_count);
+        }
+        unpaired.shrink_to_fit();
+        Pairing { pairs, unpaired }
     }
 
     /// `partner[t]` for `triangle_count` triangles.

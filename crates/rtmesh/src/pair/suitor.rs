@@ -10,18 +10,20 @@
 //! end are a pair. Every displacement raises a triangle's best offer, so the work is
 //! a few proposals per triangle; the reads follow the mesh's own order, which keeps
 //! them in cache, where a global sort's scan jumps all over the couples.
-//! Cost: O(T) proposals in practice (O(E · max degree) at worst), 20 bytes per
-//! triangle.
 //!
-//! The dual graph is kept per side of every triangle ([`Couples`], built from runs of
-//! half-edges that hold every edge whole): the triangle across it, or a mark that the
-//! side's edge has three or more half-edges, whose couples are listed apart with their
-//! keys ([`ExtraCouple`]). Keys are `u128`s from the pairing method, computed when a
-//! triangle proposes.
+//! The dual graph is kept per side of every triangle ([`Couples`]): the twin
+//! half-edge across it, or a mark that the side's edge has three or more half-edges,
+//! whose couples are listed apart with their keys ([`ExtraCouple`]). Twins are found
+//! block by block of vertices in cache ([`Couples::link`]). When no edge has more than
+//! two half-edges, a triangle's whole matching state is one byte: the order of its
+//! sides' keys and the side its suitor is across ([`match_by_side_ranks`]); else keys
+//! are `u128`s from the pairing method, computed when a triangle proposes.
+//! Cost: O(T) time (O(E · max degree) proposals at worst); 12 bytes per half-edge for
+//! the blocks, 4 for the twins and 1 per triangle for the state.
 
-use super::Pairing;
-use crate::mesh::{HalfEdgeRuns, TriMesh};
-use crate::pages::filled_on_huge_pages;
+use super::{Pairing, UNPAIRED};
+use crate::mesh::TriMesh;
+use crate::pages::{filled_on_huge_pages, vec_on_huge_pages};
 use crate::radix::SharedSlice;
 use rayon::prelude::*;
 
@@ -30,106 +32,329 @@ const NO_COUPLE: u32 = 0;
 /// `Couples::across` value of a side whose edge has three or more half-edges: its
 /// couples are in [`Couples::extra`].
 const SHARED_BY_MORE: u32 = u32::MAX;
+/// The most vertices [`Couples::link`] takes: a run entry keeps the direction in the
+/// top bit of the vertex index.
+pub(super) const MAX_VERTICES: usize = (1 << 31) - 1;
 
 /// The couples (pairable neighbours across an edge) of every triangle.
 pub(super) struct Couples {
-    /// For half-edge `3t + k` (side `k` of triangle `t`): 1 + the triangle it couples
-    /// with, [`NO_COUPLE`] or [`SHARED_BY_MORE`].
+    /// For half-edge `3t + k` (side `k` of triangle `t`): 1 + its twin, the half-edge
+    /// of the triangle it couples with; or [`NO_COUPLE`] or [`SHARED_BY_MORE`].
     across: Vec<u32>,
     /// The couples on edges of three or more half-edges, once from each triangle,
     /// sorted by triangle.
     extra: Vec<ExtraCouple>,
+    /// Per triangle, the rank of each side's key among its three (0 for the largest)
+    /// in two bits, sides 0, 1, 2 from the lowest, and [`NO_SUITOR`] in the top two;
+    /// [`EXCLUDED`] for a triangle that takes no part.
+    side_ranks: Vec<u8>,
 }
 
+/// A half-edge on its way to its smaller vertex's run.
+#[derive(Clone, Copy)]
+struct RunEntry {
+    /// The smaller vertex.
+    smaller: u32,
+    /// The larger vertex; the top bit is set when the half-edge runs from the smaller.
+    other: u32,
+    /// The half-edge (`3t + k`).
+    id: u32,
+}
+
+impl RunEntry {
+    const FORWARD: u32 = 1 << 31;
+
+    /// The larger vertex.
+    #[inline]
+    fn larger(self) -> u32 {
+        self.other & !Self::FORWARD
+    }
+
+    /// A larger vertex past every vertex.
+    const NONE: u32 = !Self::FORWARD;
+
+    /// Whether the half-edge runs from the smaller vertex to the larger.
+    #[inline]
+    fn forward(self) -> bool {
+        self.other & Self::FORWARD != 0
+    }
+}
+
+/// Runs up to this long are searched for twins in a fixed window.
+const RUN_WINDOW: usize = 16;
+
+/// Vertices per block of the twin search: a block's half-edges (about six per vertex,
+/// 12 bytes each) and its run counts stay in the core's cache while it is searched.
+const BLOCK_VERTICES: usize = 1 << 12;
+
+/// [`Couples::side_ranks`] of a triangle that takes no part.
+const EXCLUDED: u8 = 0xff;
+
 impl Couples {
-    /// The couples of `mesh`'s half-edges in `runs` (per smaller vertex, half-edge ids
-    /// ascending, as in the pairing table): two neighbouring half-edges of one edge
-    /// (in run order) couple when they run opposite ways. An edge with three or more
-    /// half-edges lists its couples in [`Couples::extra`], the `i`-th in run order with
-    /// key `extra_key(first, second, n - 1 - i)` for `n` half-edges, so that earlier
-    /// couples rank higher. Blocks of vertices in parallel: every half-edge is in one
-    /// run, so blocks write disjoint slots.
-    pub(super) fn from_runs(
+    /// The couples of the half-edges of `mesh`'s valid triangles (indices in range,
+    /// three distinct vertices) for which `side_keys(t)` gives keys: two half-edges couple
+    /// when they are the only two on their edge and run opposite ways. On an edge of
+    /// three or more, neighbours in half-edge id order that run opposite ways couple,
+    /// listed in [`Couples::extra`]: the `i`-th with key `extra_key(first, second,
+    /// n - 1 - i)` for `n` half-edges, so that earlier couples rank higher. The ranks
+    /// of each triangle's sides are those of its keys.
+    ///
+    /// Three passes. The first checks and ranks every triangle and counts its
+    /// half-edges per block of [`BLOCK_VERTICES`] smaller vertices; the second writes
+    /// them out by block. The third takes a block at a time, in cache: a counting sort
+    /// on the smaller vertex gathers each vertex's half-edges (ascending ids), among
+    /// which every edge's are found by comparing larger vertices. Parts of the
+    /// triangles, then blocks, on the pool's threads. At most [`MAX_VERTICES`].
+    pub(super) fn link(
         mesh: &TriMesh,
-        runs: &HalfEdgeRuns<u32>,
+        side_keys: impl Fn(usize) -> Option<[u128; 3]> + Sync,
         extra_key: impl Fn(usize, u32, u32) -> u128 + Sync,
     ) -> Self {
-        let triangle_count = mesh.triangle_count();
-        let mut across = filled_on_huge_pages(3 * triangle_count, NO_COUPLE);
-        let destination = SharedSlice(across.as_mut_ptr());
-        let destination = &destination;
-        let extras: Vec<Vec<ExtraCouple>> = HalfEdgeRuns::vertex_blocks(runs.vertex_count())
-            .into_par_iter()
-            .map(|block| {
-                let mut extra = Vec::new();
-                let (mut edges, mut starts_at_first) = (Vec::new(), Vec::new());
-                for r in block {
-                    let run = runs.run(r);
-                    // Each half-edge's larger vertex, and whether it starts at the
-                    // smaller one.
-                    edges.clear();
-                    starts_at_first.clear();
-                    for &h in run {
-                        let tri = mesh.triangles[(h / 3) as usize];
-                        let (a, b) = (tri[(h % 3) as usize], tri[(h % 3 + 1) as usize % 3]);
-                        edges.push(a.max(b));
-                        starts_at_first.push(a < b);
-                    }
-                    let coupled = |i: usize, j: usize| starts_at_first[i] != starts_at_first[j];
-                    for (i, edge) in edges.iter().enumerate() {
-                        // How many half-edges of the run lie on this edge, and (when
-                        // there are two) where the other one is; counted without
-                        // branches.
-                        let (mut count, mut index_sum) = (0, 0);
-                        for (j, other) in edges.iter().enumerate() {
-                            let same = (other == edge) as usize;
-                            count += same;
-                            index_sum += same * j;
-                        }
-                        // Each half-edge writes its own slot, without a branch: the
-                        // triangle across, or no couple.
-                        let j = index_sum - i;
-                        let across_i = if count == 2 && coupled(i, j) {
-                            run[j] / 3 + 1
-                        } else {
-                            NO_COUPLE
+        let vertex_count = mesh.positions.len();
+        debug_assert!(vertex_count <= MAX_VERTICES);
+        let n = mesh.triangle_count();
+        // `&`, not `&&`: nearly every triangle is valid, and one test of all six
+        // conditions costs less than six branches.
+        let valid = |t: &[u32; 3]| {
+            ((t[0] as usize) < vertex_count)
+                & ((t[1] as usize) < vertex_count)
+                & ((t[2] as usize) < vertex_count)
+                & (t[0] != t[1])
+                & (t[1] != t[2])
+                & (t[2] != t[0])
+        };
+        let blocks = vertex_count.div_ceil(BLOCK_VERTICES).max(1);
+        let block_of = |v: u32| v as usize / BLOCK_VERTICES;
+        // The triangles in parts, one per pool thread (one below 32k triangles).
+        let parts = rayon::current_num_threads().min(n >> 15).max(1);
+        let part_len = n.div_ceil(parts).max(1);
+        // Pass 1: side ranks, and half-edges per block per part.
+        let mut side_ranks = vec![EXCLUDED; n];
+        let mut cursors: Vec<Vec<u32>> = side_ranks
+            .par_chunks_mut(part_len)
+            .enumerate()
+            .map(|(p, ranks)| {
+                let mut count = vec![0u32; blocks];
+                for (i, r) in ranks.iter_mut().enumerate() {
+                    let t = p * part_len + i;
+                    let tri = mesh.triangles[t];
+                    if let Some(keys) = valid(&tri).then(|| side_keys(t)).flatten() {
+                        let rank = |k: usize| {
+                            (keys[k] < keys[(k + 1) % 3]) as u8
+                                + (keys[k] < keys[(k + 2) % 3]) as u8
                         };
-                        if count <= 2 {
-                            // SAFETY: half-edge run[i] belongs to this block only.
-                            unsafe { destination.0.add(run[i] as usize).write(across_i) };
-                        } else if !edges[..i].contains(edge) {
-                            let on_edge: Vec<usize> =
-                                (i..run.len()).filter(|&j| edges[j] == *edge).collect();
-                            for (rank, w) in on_edge.windows(2).enumerate() {
-                                if coupled(w[0], w[1]) {
-                                    let rank = (on_edge.len() - 1 - rank) as u32;
-                                    let key = extra_key(r, *edge, rank);
-                                    let (a, b) = (run[w[0]] / 3, run[w[1]] / 3);
-                                    extra.push(ExtraCouple {
-                                        triangle: a,
-                                        neighbour: b,
-                                        key,
-                                    });
-                                    extra.push(ExtraCouple {
-                                        triangle: b,
-                                        neighbour: a,
-                                        key,
-                                    });
-                                }
-                            }
-                            for &j in &on_edge {
-                                // SAFETY: as above.
-                                unsafe { destination.0.add(run[j] as usize).write(SHARED_BY_MORE) };
-                            }
+                        *r = rank(0) | rank(1) << 2 | rank(2) << 4 | NO_SUITOR << 6;
+                        for k in 0..3 {
+                            count[block_of(tri[k].min(tri[(k + 1) % 3]))] += 1;
                         }
                     }
                 }
-                extra
+                count
             })
+            .collect();
+        // Block-major layout, parts in order within a block: a block's half-edges
+        // ascend.
+        let mut block_start = vec![0u32; blocks + 1];
+        let mut sum = 0u32;
+        for b in 0..blocks {
+            block_start[b] = sum;
+            for cursor in cursors.iter_mut() {
+                let count = cursor[b];
+                cursor[b] = sum;
+                sum += count;
+            }
+        }
+        block_start[blocks] = sum;
+        // Pass 2: write the half-edges out by block.
+        let half_edge_count = sum as usize;
+        let mut entries: Vec<RunEntry> = vec_on_huge_pages(half_edge_count);
+        let destination = SharedSlice(entries.as_mut_ptr());
+        let destination = &destination;
+        side_ranks
+            .par_chunks(part_len)
+            .zip(cursors)
+            .enumerate()
+            .for_each(|(p, (ranks, mut cursor))| {
+                for (i, &r) in ranks.iter().enumerate() {
+                    if r == EXCLUDED {
+                        continue;
+                    }
+                    let t = p * part_len + i;
+                    let tri = mesh.triangles[t];
+                    for k in 0..3 {
+                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
+                        let c = &mut cursor[block_of(a.min(b))];
+                        // SAFETY: the counts give every half-edge its own slot below
+                        // `half_edge_count`.
+                        unsafe {
+                            destination.0.add(*c as usize).write(RunEntry {
+                                smaller: a.min(b),
+                                other: a.max(b) | if a < b { RunEntry::FORWARD } else { 0 },
+                                id: (3 * t + k) as u32,
+                            })
+                        };
+                        *c += 1;
+                    }
+                }
+            });
+        // SAFETY: the cursors covered every slot exactly once.
+        unsafe { entries.set_len(half_edge_count) };
+        // Pass 3: the blocks.
+        let mut across = filled_on_huge_pages(3 * n, NO_COUPLE);
+        let destination = SharedSlice(across.as_mut_ptr());
+        let destination = &destination;
+        let extras: Vec<Vec<ExtraCouple>> = (0..blocks)
+            .into_par_iter()
+            .fold(
+                || (Vec::new(), Vec::new(), Vec::new()),
+                |(mut extra, mut runs, mut start), b| {
+                    let block = &entries[block_start[b] as usize..block_start[b + 1] as usize];
+                    let base = (b * BLOCK_VERTICES) as u32;
+                    let vertices = BLOCK_VERTICES.min(vertex_count - b * BLOCK_VERTICES);
+                    // Counting sort of the block on the smaller vertex.
+                    start.clear();
+                    start.resize(vertices + 1, 0u32);
+                    for e in block {
+                        start[(e.smaller - base) as usize + 1] += 1;
+                    }
+                    for v in 0..vertices {
+                        start[v + 1] += start[v];
+                    }
+                    runs.clear();
+                    runs.resize(
+                        block.len(),
+                        block.first().copied().unwrap_or(RunEntry {
+                            smaller: 0,
+                            other: 0,
+                            id: 0,
+                        }),
+                    );
+                    for e in block {
+                        let c = &mut start[(e.smaller - base) as usize];
+                        runs[*c as usize] = *e;
+                        *c += 1;
+                    }
+                    // `start[v]` is now where run v + 1 starts.
+                    let mut from = 0;
+                    for v in 0..vertices {
+                        let run = &runs[from..start[v] as usize];
+                        from = start[v] as usize;
+                        if !couple_pairs(run, destination) {
+                            couple_run(
+                                run,
+                                &extra_key,
+                                (base as usize) + v,
+                                destination,
+                                &mut extra,
+                            );
+                        }
+                    }
+                    (extra, runs, start)
+                },
+            )
+            .map(|(extra, _, _)| extra)
             .collect();
         let mut extra = extras.concat();
         extra.sort_unstable_by_key(|e| e.triangle);
-        Couples { across, extra }
+        Couples {
+            across,
+            extra,
+            side_ranks,
+        }
+    }
+}
+
+/// Couple the half-edges of one vertex's run when it is at most [`RUN_WINDOW`] long
+/// and every edge in it has at most two: two on one edge couple when they run
+/// opposite ways. Returns false, having written nothing that [`couple_run`] will not
+/// overwrite, otherwise.
+#[inline]
+fn couple_pairs(run: &[RunEntry], destination: &SharedSlice<u32>) -> bool {
+    if run.len() > RUN_WINDOW {
+        return false;
+    }
+    // The larger vertices in a fixed window (a vertex index past every vertex in
+    // the spare lanes), compared all at once: lanes where e's edge is.
+    let mut larger = [RunEntry::NONE; RUN_WINDOW];
+    for (l, e) in larger.iter_mut().zip(run) {
+        *l = e.larger();
+    }
+    let mut at_most_two = true;
+    for (i, e) in run.iter().enumerate() {
+        let lanes = larger
+            .iter()
+            .enumerate()
+            .fold(0u32, |m, (j, &l)| m | ((l == e.larger()) as u32) << j);
+        // `count_ones` is a library routine on baseline x86-64: with e's own lane
+        // cleared, one more lane means a twin, two or more a shared edge.
+        let others = lanes & !(1 << i);
+        let one_other = (others != 0) & (others & others.wrapping_sub(1) == 0);
+        at_most_two &= others & others.wrapping_sub(1) == 0;
+        let other = run[(others.trailing_zeros() as usize).min(run.len() - 1)];
+        let linked = one_other & (other.forward() != e.forward());
+        let across = if linked { other.id + 1 } else { NO_COUPLE };
+        // SAFETY: the run's half-edges are written by this thread only.
+        unsafe { destination.0.add(e.id as usize).write(across) };
+    }
+    at_most_two
+}
+
+/// Write the couples of the whole run of vertex `v`'s half-edges into `across`
+/// (through `destination`) and `extra`, as [`Couples::link`] describes.
+fn couple_run(
+    run: &[RunEntry],
+    extra_key: impl Fn(usize, u32, u32) -> u128,
+    v: usize,
+    destination: &SharedSlice<u32>,
+    extra: &mut Vec<ExtraCouple>,
+) {
+    let coupled = |i: usize, j: usize| run[i].forward() != run[j].forward();
+    for (i, e) in run.iter().enumerate() {
+        let on_edge: Vec<usize> = (0..run.len())
+            .filter(|&j| run[j].larger() == e.larger())
+            .collect();
+        if let [x, y] = on_edge[..] {
+            let j = if x == i { y } else { x };
+            let across_i = if coupled(i, j) {
+                run[j].id + 1
+            } else {
+                NO_COUPLE
+            };
+            // SAFETY: the run's half-edges are written by this thread only.
+            unsafe { destination.0.add(e.id as usize).write(across_i) };
+        } else if on_edge.len() == 1 {
+            // SAFETY: as above.
+            unsafe { destination.0.add(e.id as usize).write(NO_COUPLE) };
+        } else if on_edge[0] == i {
+            let extra_before = extra.len();
+            for (rank, w) in on_edge.windows(2).enumerate() {
+                if coupled(w[0], w[1]) {
+                    let rank = (on_edge.len() - 1 - rank) as u32;
+                    let key = extra_key(v, e.larger(), rank);
+                    let (a, b) = (run[w[0]].id / 3, run[w[1]].id / 3);
+                    extra.push(ExtraCouple {
+                        triangle: a,
+                        neighbour: b,
+                        key,
+                    });
+                    extra.push(ExtraCouple {
+                        triangle: b,
+                        neighbour: a,
+                        key,
+                    });
+                }
+            }
+            // Sides on an edge of only unpairable half-edges have no couple.
+            let mark = if extra.len() > extra_before {
+                SHARED_BY_MORE
+            } else {
+                NO_COUPLE
+            };
+            for &j in &on_edge {
+                // SAFETY: as above.
+                unsafe { destination.0.add(run[j].id as usize).write(mark) };
+            }
+        }
     }
 }
 
@@ -147,7 +372,77 @@ struct ExtraCouple {
 /// The greedy matching of `couples` by descending key, where `side_keys(t)` gives the
 /// keys of triangle `t`'s three sides (called only for triangles with a couple on a side
 /// that is not [`SHARED_BY_MORE`]). Keys must be distinct between couples and above 0.
-pub(super) fn match_greedily(couples: &Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> Pairing {
+pub(super) fn match_greedily(couples: Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> Pairing {
+    if couples.extra.is_empty() {
+        match_by_side_ranks(&couples.across, couples.side_ranks)
+    } else {
+        match_by_keys(&couples, side_keys)
+    }
+}
+
+/// Suitor when every couple is across a side ([`Couples::extra`] is empty). Then a
+/// triangle's suitor is across one of its sides, and comparing two couples of one
+/// triangle needs only the order of its three sides' keys. So all the state of a
+/// triangle is one byte, which starts as its [`Couples::side_ranks`]: the rank of each
+/// side in two bits, and in the top two the side its suitor is across, or
+/// [`NO_SUITOR`]. The random reads and writes of the search touch one byte per
+/// triangle (in cache) instead of a 16-byte key and a 4-byte suitor.
+fn match_by_side_ranks(across: &[u32], mut state: Vec<u8>) -> Pairing {
+    let n = state.len();
+    for first in 0..n {
+        let mut proposer = first;
+        loop {
+            let own = state[proposer];
+            // The best side of the proposer whose neighbour prefers it to its suitor.
+            let (mut best_rank, mut best) = (NO_SUITOR, NO_COUPLE);
+            for k in 0..3 {
+                let twin = across[3 * proposer + k];
+                if twin == NO_COUPLE {
+                    continue;
+                }
+                let (v, j) = (((twin - 1) / 3) as usize, (twin - 1) % 3);
+                let theirs = state[v];
+                // Bits 6-7 hold the suitor's side, so with no suitor this "rank" is
+                // NO_SUITOR, worse than every side.
+                let suitor_rank = (theirs >> (2 * (theirs >> 6))) & 3;
+                let rank = (own >> (2 * k)) & 3;
+                let better = ((theirs >> (2 * j)) & 3 < suitor_rank) & (rank < best_rank);
+                best_rank = if better { rank } else { best_rank };
+                best = if better { twin } else { best };
+            }
+            if best == NO_COUPLE {
+                break;
+            }
+            let (v, j) = (((best - 1) / 3) as usize, ((best - 1) % 3) as u8);
+            let displaced = state[v] >> 6;
+            state[v] = (state[v] & 0x3f) | j << 6;
+            if displaced == NO_SUITOR {
+                break;
+            }
+            proposer = ((across[3 * v + displaced as usize] - 1) / 3) as usize;
+        }
+    }
+    // A pair: t's suitor is across side s of t, and t is across the side of the suitor
+    // that the suitor's suitor is across. Read without a branch (clamped when t has no
+    // suitor).
+    Pairing::from_partner_fn(n, |t| {
+        let side = state[t] >> 6;
+        let twin = across[3 * t + side.min(2) as usize].wrapping_sub(1);
+        let u = ((twin / 3) as usize).min(n - 1);
+        let mutual = (side != NO_SUITOR) & (state[u] >> 6 == (twin % 3) as u8);
+        if mutual {
+            u as u32
+        } else {
+            UNPAIRED
+        }
+    })
+}
+
+/// [`match_by_side_ranks`]' value for "no suitor" (and the rank worse than all).
+const NO_SUITOR: u8 = 3;
+
+/// Suitor with whole keys: `offer[t]` is the key of `t`'s suitor's couple.
+fn match_by_keys(couples: &Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> Pairing {
     let n = couples.across.len() / 3;
     // suitor[t]: 1 + the triangle proposing to t (0: none); offer[t]: its couple's key.
     let mut suitor = filled_on_huge_pages(n, 0u32);
@@ -163,7 +458,7 @@ pub(super) fn match_greedily(couples: &Couples, side_keys: impl Fn(usize) -> [u1
                 let keys = side_keys(proposer);
                 for k in 0..3 {
                     let v = if coupled[k] {
-                        (across[k] - 1) as usize
+                        ((across[k] - 1) / 3) as usize
                     } else {
                         proposer
                     };
@@ -197,14 +492,13 @@ pub(super) fn match_greedily(couples: &Couples, side_keys: impl Fn(usize) -> [u1
             proposer = (displaced - 1) as usize;
         }
     }
-    let mut pairing = Pairing::default();
-    for (t, &s) in suitor.iter().enumerate() {
+    Pairing::from_partner_fn(n, |t| {
+        let s = suitor[t];
         let mutual = s != 0 && suitor[(s - 1) as usize] as usize == t + 1;
-        if !mutual {
-            pairing.unpaired.push(t as u32);
-        } else if (s - 1) as usize > t {
-            pairing.pairs.push([t as u32, s - 1]);
+        if mutual {
+            s - 1
+        } else {
+            UNPAIRED
         }
-    }
-    pairing
+    })
 }

@@ -308,3 +308,33 @@ fn tied_edge_areas_pair_like_the_published_procedure() {
         assert!(fast.pair_ratio() > 0.85, "{}", fast.pair_ratio());
     }
 }
+
+/// A cone of 24 triangles around vertex 0 (which has the smallest index, so all 48
+/// half-edges of its spokes sort under it) and a fin on one spoke: the twin search's
+/// long-run path (past its fixed window) must pair like the published procedure.
+#[test]
+fn long_vertex_runs_pair_like_the_published_procedure() {
+    let spokes = 24u32;
+    let mut positions = vec![glam::Vec3::new(0.0, 0.0, 1.0)];
+    for i in 0..spokes {
+        let angle = i as f32 * std::f32::consts::TAU / spokes as f32;
+        positions.push(glam::Vec3::new(
+            angle.cos(),
+            angle.sin() * 1.3,
+            0.1 * i as f32,
+        ));
+    }
+    positions.push(glam::Vec3::new(0.5, 0.5, -1.0));
+    let mut triangles: Vec<[u32; 3]> = (0..spokes)
+        .map(|i| [0, 1 + i, 1 + (i + 1) % spokes])
+        .collect();
+    let mut with_fin = triangles.clone();
+    with_fin.push([0, spokes + 1, 1]);
+    triangles.push([1, 2, 3]);
+    for triangles in [triangles, with_fin] {
+        let mesh = TriMesh::new(positions.clone(), triangles);
+        let fast = pair_sah(&mesh);
+        assert_eq!(fast, pair_sah_reference(&mesh));
+        assert!(fast.pairs.len() >= 10, "{fast:?}");
+    }
+}
