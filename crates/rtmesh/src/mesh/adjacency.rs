@@ -109,6 +109,46 @@ pub(crate) struct HalfEdgeRuns {
     slots: Vec<(u32, u32)>,
 }
 
+/// Whether triangle `t` has three edges: indices below `vertex_count` and three
+/// distinct vertices. Tested with `&`, not `&&`: nearly every triangle passes, and one
+/// test of all six conditions costs less than six branches.
+#[inline]
+pub(crate) fn has_edges(t: &[u32; 3], vertex_count: usize) -> bool {
+    ((t[0] as usize) < vertex_count)
+        & ((t[1] as usize) < vertex_count)
+        & ((t[2] as usize) < vertex_count)
+        & (t[0] != t[1])
+        & (t[1] != t[2])
+        & (t[2] != t[0])
+}
+
+/// The length of the parts that `triangle_count` triangles split into for a counting
+/// sort: one part per pool thread, or one below 32k triangles.
+pub(crate) fn triangle_part_len(triangle_count: usize) -> usize {
+    let parts = rayon::current_num_threads()
+        .min(triangle_count >> 15)
+        .max(1);
+    triangle_count.div_ceil(parts).max(1)
+}
+
+/// Turn per-part counts per bucket (`buckets` of them) into per-part cursors, in
+/// place, each part's slots in a bucket after the earlier parts': a stable counting
+/// sort over parts. Returns where every bucket starts, and the total last.
+pub(crate) fn part_cursors(cursors: &mut [Vec<u32>], buckets: usize) -> Vec<u32> {
+    let mut start = vec![0u32; buckets + 1];
+    let mut sum = 0u32;
+    for b in 0..buckets {
+        start[b] = sum;
+        for cursor in cursors.iter_mut() {
+            let count = cursor[b];
+            cursor[b] = sum;
+            sum += count;
+        }
+    }
+    start[buckets] = sum;
+    start
+}
+
 impl HalfEdgeRuns {
     /// Counting sort of the half-edges of the valid triangles (indices in range, three
     /// distinct vertices) on their smaller vertex, as entries (larger vertex,
@@ -116,23 +156,10 @@ impl HalfEdgeRuns {
     /// are in no order. Parts of the triangles on the pool's threads.
     fn unsorted(mesh: &TriMesh) -> Self {
         let vertex_count = mesh.positions.len();
-        // `&`, not `&&`: nearly every triangle is valid, and one test of all six
-        // conditions costs less than six branches.
-        let valid = |t: &[u32; 3]| {
-            ((t[0] as usize) < vertex_count)
-                & ((t[1] as usize) < vertex_count)
-                & ((t[2] as usize) < vertex_count)
-                & (t[0] != t[1])
-                & (t[1] != t[2])
-                & (t[2] != t[0])
-        };
-        // The triangles in parts, one per pool thread (one below 32k triangles): each
-        // part counts and scatters its own half-edges, after the earlier parts' in every
-        // vertex's run, so runs keep ascending half-edge ids.
-        let parts = rayon::current_num_threads()
-            .min(mesh.triangles.len() >> 15)
-            .max(1);
-        let part_len = mesh.triangles.len().div_ceil(parts).max(1);
+        let valid = |t: &[u32; 3]| has_edges(t, vertex_count);
+        // Each part of the triangles counts and scatters its own half-edges, after the
+        // earlier parts' in every vertex's run, so runs keep ascending half-edge ids.
+        let part_len = triangle_part_len(mesh.triangles.len());
         // Pass 1: count half-edges per smaller vertex, per part.
         let mut cursors: Vec<Vec<u32>> = mesh
             .triangles
@@ -149,20 +176,9 @@ impl HalfEdgeRuns {
                 count
             })
             .collect();
-        // Each part's cursor is where its run starts within the vertex's run.
-        let mut start = vec![0u32; vertex_count + 1];
-        let mut sum = 0u32;
-        for v in 0..vertex_count {
-            start[v] = sum;
-            for cursor in cursors.iter_mut() {
-                let count = cursor[v];
-                cursor[v] = sum;
-                sum += count;
-            }
-        }
-        start[vertex_count] = sum;
+        let start = part_cursors(&mut cursors, vertex_count);
         // Pass 2: scatter each half-edge's entry into its smaller vertex's slots.
-        let half_edge_count = sum as usize;
+        let half_edge_count = start[vertex_count] as usize;
         let mut slots: Vec<(u32, u32)> = crate::pages::vec_on_huge_pages(half_edge_count);
         let destination = crate::radix::SharedSlice(slots.as_mut_ptr());
         let destination = &destination;

@@ -9,8 +9,8 @@ mod info;
 mod validate;
 mod weld;
 
-pub(crate) use adjacency::HalfEdgeRuns;
 pub use adjacency::{connected_components, EdgeAdjacency, NO_EDGE};
+pub(crate) use adjacency::{has_edges, part_cursors, triangle_part_len, HalfEdgeRuns};
 pub use info::MeshInfo;
 pub use validate::{validate, Validation};
 pub use weld::{weld, weld_exact, WeldResult};

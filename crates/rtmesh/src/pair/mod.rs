@@ -293,13 +293,7 @@ impl<'m> ActiveTriangles<'m> {
     #[inline]
     pub(crate) fn get(&self, t: usize) -> bool {
         let [a, b, c] = self.mesh.triangles[t];
-        let n = self.mesh.positions.len();
-        (a as usize) < n
-            && (b as usize) < n
-            && (c as usize) < n
-            && a != b
-            && b != c
-            && c != a
+        crate::mesh::has_edges(&[a, b, c], self.mesh.positions.len())
             && self.mesh.positions[a as usize].is_finite()
             && self.mesh.positions[b as usize].is_finite()
             && self.mesh.positions[c as usize].is_finite()

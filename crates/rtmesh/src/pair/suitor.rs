@@ -22,7 +22,7 @@
 //! the blocks, 4 for the twins and 1 per triangle for the state.
 
 use super::{Pairing, UNPAIRED};
-use crate::mesh::TriMesh;
+use crate::mesh::{has_edges, part_cursors, triangle_part_len, TriMesh};
 use crate::pages::{filled_on_huge_pages, vec_on_huge_pages};
 use crate::radix::SharedSlice;
 use rayon::prelude::*;
@@ -51,7 +51,7 @@ pub(super) struct Couples {
 }
 
 /// A half-edge on its way to its smaller vertex's run.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Default)]
 struct RunEntry {
     /// The smaller vertex.
     smaller: u32,
@@ -113,21 +113,9 @@ impl Couples {
         let vertex_count = mesh.positions.len();
         debug_assert!(vertex_count <= MAX_VERTICES);
         let n = mesh.triangle_count();
-        // `&`, not `&&`: nearly every triangle is valid, and one test of all six
-        // conditions costs less than six branches.
-        let valid = |t: &[u32; 3]| {
-            ((t[0] as usize) < vertex_count)
-                & ((t[1] as usize) < vertex_count)
-                & ((t[2] as usize) < vertex_count)
-                & (t[0] != t[1])
-                & (t[1] != t[2])
-                & (t[2] != t[0])
-        };
         let blocks = vertex_count.div_ceil(BLOCK_VERTICES).max(1);
         let block_of = |v: u32| v as usize / BLOCK_VERTICES;
-        // The triangles in parts, one per pool thread (one below 32k triangles).
-        let parts = rayon::current_num_threads().min(n >> 15).max(1);
-        let part_len = n.div_ceil(parts).max(1);
+        let part_len = triangle_part_len(n);
         // Pass 1: side ranks, and half-edges per block per part.
         let mut side_ranks = vec![EXCLUDED; n];
         let mut cursors: Vec<Vec<u32>> = side_ranks
@@ -138,7 +126,10 @@ impl Couples {
                 for (i, r) in ranks.iter_mut().enumerate() {
                     let t = p * part_len + i;
                     let tri = mesh.triangles[t];
-                    if let Some(keys) = valid(&tri).then(|| side_keys(t)).flatten() {
+                    if let Some(keys) = has_edges(&tri, vertex_count)
+                        .then(|| side_keys(t))
+                        .flatten()
+                    {
                         let rank = |k: usize| {
                             (keys[k] < keys[(k + 1) % 3]) as u8
                                 + (keys[k] < keys[(k + 2) % 3]) as u8
@@ -152,21 +143,10 @@ impl Couples {
                 count
             })
             .collect();
-        // Block-major layout, parts in order within a block: a block's half-edges
-        // ascend.
-        let mut block_start = vec![0u32; blocks + 1];
-        let mut sum = 0u32;
-        for b in 0..blocks {
-            block_start[b] = sum;
-            for cursor in cursors.iter_mut() {
-                let count = cursor[b];
-                cursor[b] = sum;
-                sum += count;
-            }
-        }
-        block_start[blocks] = sum;
+        // Parts in order within a block: a block's half-edges ascend.
+        let block_start = part_cursors(&mut cursors, blocks);
         // Pass 2: write the half-edges out by block.
-        let half_edge_count = sum as usize;
+        let half_edge_count = block_start[blocks] as usize;
         let mut entries: Vec<RunEntry> = vec_on_huge_pages(half_edge_count);
         let destination = SharedSlice(entries.as_mut_ptr());
         let destination = &destination;
@@ -221,14 +201,7 @@ impl Couples {
                         start[v + 1] += start[v];
                     }
                     runs.clear();
-                    runs.resize(
-                        block.len(),
-                        block.first().copied().unwrap_or(RunEntry {
-                            smaller: 0,
-                            other: 0,
-                            id: 0,
-                        }),
-                    );
+                    runs.resize(block.len(), RunEntry::default());
                     for e in block {
                         let c = &mut start[(e.smaller - base) as usize];
                         runs[*c as usize] = *e;
