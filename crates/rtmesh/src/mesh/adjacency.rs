@@ -105,7 +105,7 @@ impl EdgeAdjacency {
 pub(crate) struct HalfEdgeRuns {
     /// `slots[start[v]..start[v + 1]]` are the half-edges whose smaller vertex is `v`.
     start: Vec<u32>,
-    /// One entry per half-edge: here (larger vertex, half-edge id).
+    /// One entry per half-edge: (larger vertex, half-edge id).
     slots: Vec<(u32, u32)>,
 }
 

@@ -292,8 +292,8 @@ impl<'m> ActiveTriangles<'m> {
 
     #[inline]
     pub(crate) fn get(&self, t: usize) -> bool {
-        let [a, b, c] = self.mesh.triangles[t];
-        crate::mesh::has_edges(&[a, b, c], self.mesh.positions.len())
+        let tri @ [a, b, c] = self.mesh.triangles[t];
+        crate::mesh::has_edges(&tri, self.mesh.positions.len())
             && self.mesh.positions[a as usize].is_finite()
             && self.mesh.positions[b as usize].is_finite()
             && self.mesh.positions[c as usize].is_finite()

@@ -63,15 +63,14 @@ struct RunEntry {
 
 impl RunEntry {
     const FORWARD: u32 = 1 << 31;
+    /// A larger vertex past every vertex.
+    const NONE: u32 = !Self::FORWARD;
 
     /// The larger vertex.
     #[inline]
     fn larger(self) -> u32 {
         self.other & !Self::FORWARD
     }
-
-    /// A larger vertex past every vertex.
-    const NONE: u32 = !Self::FORWARD;
 
     /// Whether the half-edge runs from the smaller vertex to the larger.
     #[inline]
