@@ -17,7 +17,6 @@ pub mod lint;
 pub mod mesh;
 mod pages;
 pub mod pair;
-pub mod radix;
 pub mod random;
 pub mod render;
 pub mod repair;

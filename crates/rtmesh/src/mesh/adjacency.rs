@@ -131,6 +131,12 @@ pub(crate) fn triangle_part_len(triangle_count: usize) -> usize {
     triangle_count.div_ceil(parts).max(1)
 }
 
+/// A scatter's destination, shared by threads that write disjoint slots of it (the
+/// counting sorts of the half-edge runs and of the pairing's twin search).
+pub(crate) struct SharedSlice<K>(pub(crate) *mut K);
+// SAFETY: threads write disjoint elements only.
+unsafe impl<K: Send> Sync for SharedSlice<K> {}
+
 /// Turn per-part counts per bucket (`buckets` of them) into per-part cursors, in
 /// place, each part's slots in a bucket after the earlier parts': a stable counting
 /// sort over parts. Returns where every bucket starts, and the total last.
@@ -180,7 +186,7 @@ impl HalfEdgeRuns {
         // Pass 2: scatter each half-edge's entry into its smaller vertex's slots.
         let half_edge_count = start[vertex_count] as usize;
         let mut slots: Vec<(u32, u32)> = crate::pages::vec_on_huge_pages(half_edge_count);
-        let destination = crate::radix::SharedSlice(slots.as_mut_ptr());
+        let destination = SharedSlice(slots.as_mut_ptr());
         let destination = &destination;
         mesh.triangles
             .par_chunks(part_len)

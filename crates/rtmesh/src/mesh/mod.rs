@@ -10,7 +10,7 @@ mod validate;
 mod weld;
 
 pub use adjacency::{connected_components, EdgeAdjacency, NO_EDGE};
-pub(crate) use adjacency::{has_edges, part_cursors, triangle_part_len, HalfEdgeRuns};
+pub(crate) use adjacency::{has_edges, part_cursors, triangle_part_len, HalfEdgeRuns, SharedSlice};
 pub use info::MeshInfo;
 pub use validate::{validate, Validation};
 pub use weld::{weld, weld_exact, WeldResult};

@@ -6,62 +6,60 @@
 //! surface area and its midpoint, each quantised to 24 bits, and the record adds the
 //! 32-bit half-edge id: 16 bytes. The BBSA keeps its float order by taking the top 24
 //! bits of its (positive) IEEE bits, a relative precision of 2⁻¹⁵; midpoints are
-//! quantised linearly in the mesh's box. The table is sorted descending by
-//! [BBSA, midpoint] with a radix sort (a most-significant-digit pass into buckets that
-//! fit the cache, then 8-bit passes within each; see [`crate::radix`]) and scanned as
-//! in [`super::greedy`].
+//! quantised linearly in the mesh's box. The published procedure sorts the table
+//! descending by [BBSA, midpoint] and scans it as in [`super::greedy`]
+//! ([`pair_sah_compressed_reference`], plainly).
 //!
 //! Quantisation can give two different edges one key. A scan that paired them would
 //! pair triangles that do not touch, so a candidate pair must also share the edge's two
 //! corner positions exactly, in opposite directions; the published procedure takes
-//! the key on trust. Cost: O(T) time, 16 bytes per half-edge twice.
+//! the key on trust.
+//!
+//! The fast route, [`pair_sah_compressed`], gives the same pairing with no sort, as
+//! the indexed route does (module `suitor`): the half-edges go to blocks and runs by a
+//! hash of their key, twins are the half-edges of one key in a run, and the Suitor
+//! algorithm finds the scan's matching. The corner check comes after, in mesh order,
+//! where a couple's two triangles are near each other in memory. Cost: O(T) time; 12
+//! bytes per half-edge for the keys, 16 for the blocks, 4 for the twins.
 
-use super::{ActiveTriangles, Pairing, UNPAIRED};
-use crate::mesh::TriMesh;
-use crate::radix::sort_u128_by_bits;
+use super::suitor::{match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
+use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
+use crate::geom::Aabb;
+use crate::mesh::{triangle_part_len, TriMesh};
+use crate::pages::vec_on_huge_pages;
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// Bits per quantised key field.
 const FIELD_BITS: u32 = 24;
 
 /// Greedy pairing keyed by position: vertex indices are used only to read corners.
+/// The same pairing as [`pair_sah_compressed_reference`].
 pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
+    let keys = PositionKeys::new(mesh);
+    let couples = Couples::link(mesh.triangle_count(), &keys);
+    match_greedily(couples, |t| {
+        let sides = &keys.keys[3 * t..3 * t + 3];
+        [0, 1, 2].map(|k| couple_key(sides[k], 0))
+    })
+}
+
+/// The published procedure, plainly: the records sorted by key, runs of equal keys
+/// scanned from the largest, neighbours in table order paired when both are free.
+pub fn pair_sah_compressed_reference(mesh: &TriMesh) -> Pairing {
     let active = ActiveTriangles::new(mesh);
+    let quantiser = Quantiser::new(mesh);
     let n = mesh.triangle_count();
-    let bounds = (0..n)
-        .filter(|&t| active.get(t))
-        .fold(crate::geom::Aabb::EMPTY, |b, t| {
-            b.union(super::triangle_box(mesh, t))
-        });
-    let field_max = ((1u32 << FIELD_BITS) - 1) as f32;
-    let scale = Vec3::splat(field_max) / bounds.extent().max(Vec3::splat(f32::MIN_POSITIVE));
-    // Nearest step, by truncating `x + 0.5` (`f32::round` is a library call on
-    // baseline x86-64); NaN lands on 0.
-    let quantise = |x: f32, axis: usize| {
-        (((x - bounds.min[axis]) * scale[axis]).clamp(0.0, field_max) + 0.5) as u32 as u128
-    };
     let mut records: Vec<u128> = Vec::with_capacity(3 * n);
-    for t in 0..n {
-        if !active.get(t) {
-            continue;
-        }
+    for t in (0..n).filter(|&t| active.get(t)) {
         let corners = mesh.corners(t);
         for k in 0..3 {
-            let (p, q) = (corners[k], corners[(k + 1) % 3]);
-            let bbsa = super::edge_bbsa(p, q); // symmetric in p and q
-            let mid = (p + q) * 0.5;
-            let key = (bbsa.to_bits() >> (31 - FIELD_BITS)) as u128;
-            let key = (key << FIELD_BITS) | quantise(mid.x, 0);
-            let key = (key << FIELD_BITS) | quantise(mid.y, 1);
-            let key = (key << FIELD_BITS) | quantise(mid.z, 2);
-            records.push(key << 32 | (3 * t + k) as u128);
+            let key = quantiser.key(corners[k], corners[(k + 1) % 3]);
+            records.push(key_bits(key) << 32 | (3 * t + k) as u128);
         }
     }
-    sort_u128_by_bits(&mut records, 32, 128);
-    let corner = |h: u32, offset: u32| {
-        let t = (h / 3) as usize;
-        mesh.positions[mesh.triangles[t][((h + offset) % 3) as usize] as usize]
-    };
+    // Ascending by key, then id: equal keys stay in table order.
+    records.sort_unstable();
     let mut partner = vec![UNPAIRED; n];
     // Walk runs of equal keys from the largest; within a run, in table order.
     let mut end = records.len();
@@ -74,12 +72,10 @@ pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
         for w in records[start..end].windows(2) {
             let (ha, hb) = (w[0] as u32, w[1] as u32);
             let (a, b) = ((ha / 3) as usize, (hb / 3) as usize);
-            // Half-edge h of triangle t runs from corner h % 3 to the next.
             if a != b
                 && partner[a] == UNPAIRED
                 && partner[b] == UNPAIRED
-                && corner(ha, 0) == corner(hb, 1)
-                && corner(ha, 1) == corner(hb, 0)
+                && corners_opposite(mesh, ha, hb)
             {
                 partner[a] = b as u32;
                 partner[b] = a as u32;
@@ -88,4 +84,205 @@ pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
         end = start;
     }
     Pairing::from_partners(&partner)
+}
+
+/// Whether half-edges `a` and `b` join the same two corner positions, opposite ways.
+/// (Half-edge `h` of triangle `t` runs from corner `h % 3` to the next.)
+#[inline]
+fn corners_opposite(mesh: &TriMesh, a: u32, b: u32) -> bool {
+    let corner = |h: u32, offset: u32| {
+        let t = (h / 3) as usize;
+        mesh.positions[mesh.triangles[t][((h + offset) % 3) as usize] as usize]
+    };
+    corner(a, 0) == corner(b, 1) && corner(a, 1) == corner(b, 0)
+}
+
+/// The 96-bit key in three words, most significant first: [BBSA, x, y, z], 24 bits
+/// each.
+type EdgeKey = [u32; 3];
+
+/// The key as one number (its order is the key's).
+#[inline]
+fn key_bits([high, middle, low]: EdgeKey) -> u128 {
+    (high as u128) << 64 | (middle as u128) << 32 | low as u128
+}
+
+/// The key of the couple of rank `rank` (0 on an edge of two half-edges) on the edge
+/// with key `key`: above 0, as the matching needs, though an edge key may be 0.
+#[inline]
+fn couple_key(key: EdgeKey, rank: u32) -> u128 {
+    key_bits(key) << 32 | (rank as u128 + 1)
+}
+
+/// The quantisation of edge keys in the box of the mesh's active triangles.
+struct Quantiser {
+    min: Vec3,
+    scale: Vec3,
+}
+
+impl Quantiser {
+    fn new(mesh: &TriMesh) -> Self {
+        let active = ActiveTriangles::new(mesh);
+        let bounds = (0..mesh.triangle_count())
+            .into_par_iter()
+            .with_min_len(1 << 14)
+            .filter(|&t| active.get(t))
+            .map(|t| Aabb::from_points(&mesh.corners(t)))
+            .reduce(|| Aabb::EMPTY, Aabb::union);
+        let field_max = ((1u32 << FIELD_BITS) - 1) as f32;
+        Self {
+            min: bounds.min,
+            scale: Vec3::splat(field_max) / bounds.extent().max(Vec3::splat(f32::MIN_POSITIVE)),
+        }
+    }
+
+    /// The key of edge `p–q` (symmetric in `p` and `q`).
+    #[inline]
+    fn key(&self, p: Vec3, q: Vec3) -> EdgeKey {
+        let field_max = ((1u32 << FIELD_BITS) - 1) as f32;
+        // Nearest step, by truncating `x + 0.5` (`f32::round` is a library call on
+        // baseline x86-64); NaN lands on 0. In range, a cast to i32 is one
+        // instruction, where one to u32 goes through i64.
+        let mid = ((p + q) * 0.5 - self.min) * self.scale;
+        let [x, y, z] = mid
+            .to_array()
+            .map(|f| (f.clamp(0.0, field_max) + 0.5) as i32 as u32);
+        let bbsa = edge_bbsa(p, q).to_bits() >> (31 - FIELD_BITS);
+        [bbsa << 8 | x >> 16, x << 16 | y >> 8, y << 24 | z]
+    }
+}
+
+/// The key of every side of a triangle that takes no part (no real key: its BBSA
+/// field would be a NaN's).
+const EXCLUDED_KEY: EdgeKey = [u32::MAX; 3];
+
+/// Half-edges per block of the twin search, roughly: a cell of space.
+const BLOCK_HALF_EDGES: usize = 1 << 11;
+
+/// The twin search of position-only input: blocks and runs by a hash of the key.
+struct PositionKeys<'m> {
+    mesh: &'m TriMesh,
+    /// The key of half-edge `3t + k`, [`EXCLUDED_KEY`] for a triangle that takes no
+    /// part.
+    keys: Vec<EdgeKey>,
+    /// Cells per axis of the block grid, log2.
+    cell_bits: u32,
+}
+
+impl<'m> PositionKeys<'m> {
+    fn new(mesh: &'m TriMesh) -> Self {
+        let quantiser = Quantiser::new(mesh);
+        let active = ActiveTriangles::new(mesh);
+        let n = mesh.triangle_count();
+        let part_len = triangle_part_len(n);
+        // Written once, in place of a fill and then the keys.
+        let mut keys: Vec<EdgeKey> = vec_on_huge_pages(3 * n);
+        keys.spare_capacity_mut()[..3 * n]
+            .par_chunks_mut(3 * part_len)
+            .enumerate()
+            .for_each(|(p, part)| {
+                for (i, sides) in part.chunks_exact_mut(3).enumerate() {
+                    let t = p * part_len + i;
+                    let triangle_keys = if active.get(t) {
+                        let c = mesh.corners(t);
+                        [0, 1, 2].map(|k| quantiser.key(c[k], c[(k + 1) % 3]))
+                    } else {
+                        [EXCLUDED_KEY; 3]
+                    };
+                    for (side, key) in sides.iter_mut().zip(triangle_keys) {
+                        side.write(key);
+                    }
+                }
+            });
+        // SAFETY: every key was written.
+        unsafe { keys.set_len(3 * n) };
+        // A surface crosses about (cells per axis)² cells.
+        let cell_bits = ((3 * n / BLOCK_HALF_EDGES).max(1).ilog2() / 2).min(8);
+        Self {
+            mesh,
+            keys,
+            cell_bits,
+        }
+    }
+
+    /// A hash of `key` whose top bits pick the block, then the run.
+    #[inline]
+    fn hash([high, middle, low]: EdgeKey) -> u64 {
+        let x = ((high as u64) << 32 | middle as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        (x ^ low as u64).wrapping_mul(0xBF58_476D_1CE4_E5B9)
+    }
+}
+
+impl EdgeKeys for PositionKeys<'_> {
+    type HalfEdge = PositionHalfEdge;
+
+    fn blocks(&self) -> usize {
+        1 << (3 * self.cell_bits)
+    }
+
+    fn runs(&self, _: usize, len: usize) -> usize {
+        len.next_power_of_two()
+    }
+
+    #[inline]
+    fn side_ranks(&self, t: usize) -> Option<u8> {
+        let sides = &self.keys[3 * t..3 * t + 3];
+        (sides[0] != EXCLUDED_KEY).then(|| side_ranks(&[sides[0], sides[1], sides[2]]))
+    }
+
+    #[inline]
+    fn half_edges(&self, t: usize) -> [PositionHalfEdge; 3] {
+        std::array::from_fn(|k| PositionHalfEdge {
+            key: self.keys[3 * t + k],
+            id: (3 * t + k) as u32,
+        })
+    }
+
+    /// The cell of the edge's midpoint.
+    #[inline]
+    fn block(&self, h: &PositionHalfEdge) -> usize {
+        let [high, middle, low] = h.key;
+        let (x, y, z) = (high << 16 | middle >> 16, middle << 8 | low >> 24, low);
+        let cell = |field: u32| (field & 0xff_ffff) as usize >> (FIELD_BITS - self.cell_bits);
+        (cell(x) << self.cell_bits | cell(y)) << self.cell_bits | cell(z)
+    }
+
+    #[inline]
+    fn run(&self, h: &PositionHalfEdge, runs: usize) -> usize {
+        (Self::hash(h.key) >> 32) as usize & (runs - 1)
+    }
+
+    fn extra_key(&self, h: &PositionHalfEdge, rank: u32) -> u128 {
+        couple_key(h.key, rank)
+    }
+
+    /// Of different triangles, joining the same corners opposite ways.
+    #[inline]
+    fn may_couple(&self, a: &PositionHalfEdge, b: &PositionHalfEdge) -> bool {
+        a.id / 3 != b.id / 3 && corners_opposite(self.mesh, a.id, b.id)
+    }
+}
+
+/// A half-edge and its key.
+#[derive(Clone, Copy, Default)]
+struct PositionHalfEdge {
+    key: EdgeKey,
+    /// The half-edge (`3t + k`).
+    id: u32,
+}
+
+impl HalfEdge for PositionHalfEdge {
+    type Edge = EdgeKey;
+    const NO_EDGE: EdgeKey = EXCLUDED_KEY;
+    const WINDOW: usize = 4;
+
+    #[inline]
+    fn edge(&self) -> EdgeKey {
+        self.key
+    }
+
+    #[inline]
+    fn id(&self) -> u32 {
+        self.id
+    }
 }

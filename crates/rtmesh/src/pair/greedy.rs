@@ -19,9 +19,9 @@
 //! matching. The twin search splits its work over the rayon pool's threads; the
 //! matching stays on one.
 
-use super::suitor::{match_greedily, Couples, MAX_VERTICES};
+use super::suitor::{match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
-use crate::mesh::TriMesh;
+use crate::mesh::{has_edges, TriMesh};
 
 /// One record of the paper's half-edge table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -130,23 +130,135 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     if mesh.positions.len() > MAX_VERTICES || 3 * mesh.triangle_count() > u32::MAX as usize {
         return pair_sah_reference(mesh);
     }
-    let side_keys = |t: usize| {
+    let keys = VertexKeys { mesh };
+    let couples = Couples::link(mesh.triangle_count(), &keys);
+    match_greedily(couples, |t| keys.side_keys(t).unwrap_or_default())
+}
+
+/// The most vertices [`pair_sah`]'s fast route takes: a [`VertexHalfEdge`] keeps the
+/// direction in the top bit of the vertex index.
+const MAX_VERTICES: usize = (1 << 31) - 1;
+
+/// Vertices per block of the twin search: a block's half-edges (about six per vertex,
+/// 12 bytes each) and its run counts stay in the core's cache while it is searched.
+const BLOCK_VERTICES: usize = 1 << 12;
+
+/// The twin search of indexed input: blocks of [`BLOCK_VERTICES`] smaller vertices, a
+/// run per smaller vertex.
+struct VertexKeys<'m> {
+    mesh: &'m TriMesh,
+}
+
+impl VertexKeys<'_> {
+    /// The couple keys of triangle `t`'s sides, if it takes part (valid indices,
+    /// finite corners).
+    #[inline(always)]
+    fn side_keys(&self, t: usize) -> Option<[u128; 3]> {
+        let mesh = self.mesh;
         let tri = mesh.triangles[t];
+        if !has_edges(&tri, mesh.positions.len()) {
+            return None;
+        }
         let corners = tri.map(|v| mesh.positions[v as usize]);
         if !corners.iter().all(|c| c.is_finite()) {
             return None;
         }
-        Some(std::array::from_fn(|k| {
+        let key = |k: usize| {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
             let bbsa = edge_bbsa(corners[k], corners[(k + 1) % 3]);
             couple_key(bbsa, a.min(b), a.max(b), 0)
-        }))
-    };
-    let couples = Couples::link(mesh, side_keys, |first, second, rank| {
-        let bbsa = edge_bbsa(mesh.positions[first], mesh.positions[second as usize]);
-        couple_key(bbsa, first as u32, second, rank)
-    });
-    match_greedily(couples, |t| side_keys(t).unwrap_or_default())
+        };
+        Some([key(0), key(1), key(2)])
+    }
+}
+
+impl EdgeKeys for VertexKeys<'_> {
+    type HalfEdge = VertexHalfEdge;
+
+    fn blocks(&self) -> usize {
+        self.mesh.positions.len().div_ceil(BLOCK_VERTICES)
+    }
+
+    fn runs(&self, b: usize, _: usize) -> usize {
+        BLOCK_VERTICES.min(self.mesh.positions.len() - b * BLOCK_VERTICES)
+    }
+
+    #[inline]
+    fn side_ranks(&self, t: usize) -> Option<u8> {
+        self.side_keys(t).as_ref().map(side_ranks)
+    }
+
+    #[inline]
+    fn half_edges(&self, t: usize) -> [VertexHalfEdge; 3] {
+        let tri = self.mesh.triangles[t];
+        std::array::from_fn(|k| {
+            let (a, b) = (tri[k], tri[(k + 1) % 3]);
+            VertexHalfEdge {
+                smaller: a.min(b),
+                other: a.max(b) | if a < b { VertexHalfEdge::FORWARD } else { 0 },
+                id: (3 * t + k) as u32,
+            }
+        })
+    }
+
+    #[inline]
+    fn block(&self, h: &VertexHalfEdge) -> usize {
+        h.smaller as usize / BLOCK_VERTICES
+    }
+
+    #[inline]
+    fn run(&self, h: &VertexHalfEdge, _: usize) -> usize {
+        h.smaller as usize % BLOCK_VERTICES
+    }
+
+    fn extra_key(&self, h: &VertexHalfEdge, rank: u32) -> u128 {
+        let [p, q] = [h.smaller, h.larger()].map(|v| self.mesh.positions[v as usize]);
+        couple_key(edge_bbsa(p, q), h.smaller, h.larger(), rank)
+    }
+
+    /// Whether the two run opposite ways.
+    #[inline]
+    fn may_couple(&self, a: &VertexHalfEdge, b: &VertexHalfEdge) -> bool {
+        (a.other ^ b.other) & VertexHalfEdge::FORWARD != 0
+    }
+}
+
+/// A half-edge on its way to its smaller vertex's run.
+#[derive(Clone, Copy, Default)]
+struct VertexHalfEdge {
+    /// The smaller vertex.
+    smaller: u32,
+    /// The larger vertex; the top bit is set when the half-edge runs from the smaller.
+    other: u32,
+    /// The half-edge (`3t + k`).
+    id: u32,
+}
+
+impl VertexHalfEdge {
+    const FORWARD: u32 = 1 << 31;
+
+    /// The larger vertex.
+    #[inline]
+    fn larger(self) -> u32 {
+        self.other & !Self::FORWARD
+    }
+}
+
+impl HalfEdge for VertexHalfEdge {
+    type Edge = u32;
+    /// A larger vertex past every vertex.
+    const NO_EDGE: u32 = !Self::FORWARD;
+    const WINDOW: usize = 16;
+
+    #[inline]
+    fn edge(&self) -> u32 {
+        self.larger()
+    }
+
+    #[inline]
+    fn id(&self) -> u32 {
+        self.id
+    }
 }
 
 /// The key of the couple of rank `rank` (0 on an edge of two half-edges) on edge

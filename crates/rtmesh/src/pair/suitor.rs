@@ -22,9 +22,8 @@
 //! the blocks, 4 for the twins and 1 per triangle for the state.
 
 use super::{Pairing, UNPAIRED};
-use crate::mesh::{has_edges, part_cursors, triangle_part_len, TriMesh};
+use crate::mesh::{part_cursors, triangle_part_len, SharedSlice};
 use crate::pages::{filled_on_huge_pages, vec_on_huge_pages};
-use crate::radix::SharedSlice;
 use rayon::prelude::*;
 
 /// `Couples::across` value of a side whose edge has no couple (the slot's default).
@@ -32,10 +31,6 @@ const NO_COUPLE: u32 = 0;
 /// `Couples::across` value of a side whose edge has three or more half-edges: its
 /// couples are in [`Couples::extra`].
 const SHARED_BY_MORE: u32 = u32::MAX;
-/// The most vertices [`Couples::link`] takes: a run entry keeps the direction in the
-/// top bit of the vertex index.
-pub(super) const MAX_VERTICES: usize = (1 << 31) - 1;
-
 /// The couples (pairable neighbours across an edge) of every triangle.
 pub(super) struct Couples {
     /// For half-edge `3t + k` (side `k` of triangle `t`): 1 + its twin, the half-edge
@@ -50,70 +45,74 @@ pub(super) struct Couples {
     side_ranks: Vec<u8>,
 }
 
-/// A half-edge on its way to its smaller vertex's run.
-#[derive(Clone, Copy, Default)]
-struct RunEntry {
-    /// The smaller vertex.
-    smaller: u32,
-    /// The larger vertex; the top bit is set when the half-edge runs from the smaller.
-    other: u32,
+/// A half-edge as [`Couples::link`] sorts and compares it.
+pub(super) trait HalfEdge: Copy + Default + Send + Sync {
+    /// What tells the edges of one run apart.
+    type Edge: Copy + PartialEq;
+    /// An edge that no half-edge has (the spare lanes of a window).
+    const NO_EDGE: Self::Edge;
+    /// Runs up to this long (at most [`MAX_WINDOW`]) are searched in a fixed window.
+    const WINDOW: usize;
+    /// The half-edge's edge.
+    fn edge(&self) -> Self::Edge;
     /// The half-edge (`3t + k`).
-    id: u32,
+    fn id(&self) -> u32;
 }
 
-impl RunEntry {
-    const FORWARD: u32 = 1 << 31;
-    /// A larger vertex past every vertex.
-    const NONE: u32 = !Self::FORWARD;
-
-    /// The larger vertex.
-    #[inline]
-    fn larger(self) -> u32 {
-        self.other & !Self::FORWARD
-    }
-
-    /// Whether the half-edge runs from the smaller vertex to the larger.
-    #[inline]
-    fn forward(self) -> bool {
-        self.other & Self::FORWARD != 0
-    }
+/// How a pairing method keys the half-edges for [`Couples::link`]: blocks of runs, such
+/// that every edge's half-edges land in one run of one block, and a block's half-edges
+/// fit the core's cache.
+pub(super) trait EdgeKeys: Sync {
+    /// The half-edges.
+    type HalfEdge: HalfEdge;
+    /// How many blocks.
+    fn blocks(&self) -> usize;
+    /// How many runs block `b`, of `len` half-edges, has.
+    fn runs(&self, b: usize, len: usize) -> usize;
+    /// The ranks of triangle `t`'s sides' keys (as in [`Couples::side_ranks`], without
+    /// the suitor bits), or `None` for a triangle that takes no part.
+    fn side_ranks(&self, t: usize) -> Option<u8>;
+    /// The half-edges of triangle `t`, one that takes part.
+    fn half_edges(&self, t: usize) -> [Self::HalfEdge; 3];
+    /// The block of half-edge `h`.
+    fn block(&self, h: &Self::HalfEdge) -> usize;
+    /// The run of half-edge `h` in its block, which has `runs` runs.
+    fn run(&self, h: &Self::HalfEdge, runs: usize) -> usize;
+    /// The key of the `rank`-th couple from the end on an edge of three or more
+    /// half-edges, `h` among them.
+    fn extra_key(&self, h: &Self::HalfEdge, rank: u32) -> u128;
+    /// Whether `a` and `b`, two half-edges on one edge, may be a couple.
+    fn may_couple(&self, a: &Self::HalfEdge, b: &Self::HalfEdge) -> bool;
 }
 
-/// Runs up to this long are searched for twins in a fixed window.
-const RUN_WINDOW: usize = 16;
+/// The longest fixed window of [`couple_pairs`].
+const MAX_WINDOW: usize = 16;
 
-/// Vertices per block of the twin search: a block's half-edges (about six per vertex,
-/// 12 bytes each) and its run counts stay in the core's cache while it is searched.
-const BLOCK_VERTICES: usize = 1 << 12;
+/// The rank byte of a triangle whose sides have keys `keys`.
+#[inline]
+pub(super) fn side_ranks<K: PartialOrd>(keys: &[K; 3]) -> u8 {
+    let rank = |k: usize| (keys[k] < keys[(k + 1) % 3]) as u8 + (keys[k] < keys[(k + 2) % 3]) as u8;
+    rank(0) | rank(1) << 2 | rank(2) << 4
+}
 
 /// [`Couples::side_ranks`] of a triangle that takes no part.
 const EXCLUDED: u8 = 0xff;
 
 impl Couples {
-    /// The couples of the half-edges of `mesh`'s valid triangles (indices in range,
-    /// three distinct vertices) for which `side_keys(t)` gives keys: two half-edges couple
-    /// when they are the only two on their edge and run opposite ways. On an edge of
-    /// three or more, neighbours in half-edge id order that run opposite ways couple,
-    /// listed in [`Couples::extra`]: the `i`-th with key `extra_key(first, second,
-    /// n - 1 - i)` for `n` half-edges, so that earlier couples rank higher. The ranks
-    /// of each triangle's sides are those of its keys.
+    /// The couples of the half-edges that `keys` gives: two half-edges couple when they
+    /// are the only two on their edge and [`HalfEdge::may_couple`]. On an edge of three
+    /// or more, neighbours in half-edge id order that may couple do, listed in
+    /// [`Couples::extra`]: the `i`-th with key `extra_key(h, n - 1 - i)` for `n`
+    /// half-edges, so that earlier couples rank higher.
     ///
-    /// Three passes. The first checks and ranks every triangle and counts its
-    /// half-edges per block of [`BLOCK_VERTICES`] smaller vertices; the second writes
-    /// them out by block. The third takes a block at a time, in cache: a counting sort
-    /// on the smaller vertex gathers each vertex's half-edges (ascending ids), among
-    /// which every edge's are found by comparing larger vertices. Parts of the
-    /// triangles, then blocks, on the pool's threads. At most [`MAX_VERTICES`].
-    pub(super) fn link(
-        mesh: &TriMesh,
-        side_keys: impl Fn(usize) -> Option<[u128; 3]> + Sync,
-        extra_key: impl Fn(usize, u32, u32) -> u128 + Sync,
-    ) -> Self {
-        let vertex_count = mesh.positions.len();
-        debug_assert!(vertex_count <= MAX_VERTICES);
-        let n = mesh.triangle_count();
-        let blocks = vertex_count.div_ceil(BLOCK_VERTICES).max(1);
-        let block_of = |v: u32| v as usize / BLOCK_VERTICES;
+    /// Three passes. The first ranks every triangle's sides and counts its half-edges
+    /// per block; the second writes them out by block. The third takes a block at a
+    /// time, in cache: a counting sort on the run gathers each run's half-edges
+    /// (ascending ids), among which every edge's are found by comparing edges. Parts of
+    /// the triangles, then blocks, on the pool's threads.
+    pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K) -> Self {
+        let n = triangle_count;
+        let blocks = keys.blocks().max(1);
         let part_len = triangle_part_len(n);
         // Pass 1: side ranks, and half-edges per block per part.
         let mut side_ranks = vec![EXCLUDED; n];
@@ -124,18 +123,10 @@ impl Couples {
                 let mut count = vec![0u32; blocks];
                 for (i, r) in ranks.iter_mut().enumerate() {
                     let t = p * part_len + i;
-                    let tri = mesh.triangles[t];
-                    if let Some(keys) = has_edges(&tri, vertex_count)
-                        .then(|| side_keys(t))
-                        .flatten()
-                    {
-                        let rank = |k: usize| {
-                            (keys[k] < keys[(k + 1) % 3]) as u8
-                                + (keys[k] < keys[(k + 2) % 3]) as u8
-                        };
-                        *r = rank(0) | rank(1) << 2 | rank(2) << 4 | NO_SUITOR << 6;
-                        for k in 0..3 {
-                            count[block_of(tri[k].min(tri[(k + 1) % 3]))] += 1;
+                    if let Some(rank) = keys.side_ranks(t) {
+                        *r = rank | NO_SUITOR << 6;
+                        for h in &keys.half_edges(t) {
+                            count[keys.block(h)] += 1;
                         }
                     }
                 }
@@ -146,7 +137,7 @@ impl Couples {
         let block_start = part_cursors(&mut cursors, blocks);
         // Pass 2: write the half-edges out by block.
         let half_edge_count = block_start[blocks] as usize;
-        let mut entries: Vec<RunEntry> = vec_on_huge_pages(half_edge_count);
+        let mut entries: Vec<K::HalfEdge> = vec_on_huge_pages(half_edge_count);
         let destination = SharedSlice(entries.as_mut_ptr());
         let destination = &destination;
         side_ranks
@@ -158,20 +149,11 @@ impl Couples {
                     if r == EXCLUDED {
                         continue;
                     }
-                    let t = p * part_len + i;
-                    let tri = mesh.triangles[t];
-                    for k in 0..3 {
-                        let (a, b) = (tri[k], tri[(k + 1) % 3]);
-                        let c = &mut cursor[block_of(a.min(b))];
+                    for h in keys.half_edges(p * part_len + i) {
+                        let c = &mut cursor[keys.block(&h)];
                         // SAFETY: the counts give every half-edge its own slot below
                         // `half_edge_count`.
-                        unsafe {
-                            destination.0.add(*c as usize).write(RunEntry {
-                                smaller: a.min(b),
-                                other: a.max(b) | if a < b { RunEntry::FORWARD } else { 0 },
-                                id: (3 * t + k) as u32,
-                            })
-                        };
+                        unsafe { destination.0.add(*c as usize).write(h) };
                         *c += 1;
                     }
                 }
@@ -186,42 +168,35 @@ impl Couples {
             .into_par_iter()
             .fold(
                 || (Vec::new(), Vec::new(), Vec::new()),
-                |(mut extra, mut runs, mut start), b| {
+                |(mut extra, mut sorted, mut start), b| {
                     let block = &entries[block_start[b] as usize..block_start[b + 1] as usize];
-                    let base = (b * BLOCK_VERTICES) as u32;
-                    let vertices = BLOCK_VERTICES.min(vertex_count - b * BLOCK_VERTICES);
-                    // Counting sort of the block on the smaller vertex.
+                    let runs = keys.runs(b, block.len());
+                    // Counting sort of the block on the run.
                     start.clear();
-                    start.resize(vertices + 1, 0u32);
-                    for e in block {
-                        start[(e.smaller - base) as usize + 1] += 1;
+                    start.resize(runs + 1, 0u32);
+                    for h in block {
+                        start[keys.run(h, runs) + 1] += 1;
                     }
-                    for v in 0..vertices {
-                        start[v + 1] += start[v];
+                    for r in 0..runs {
+                        start[r + 1] += start[r];
                     }
-                    runs.clear();
-                    runs.resize(block.len(), RunEntry::default());
-                    for e in block {
-                        let c = &mut start[(e.smaller - base) as usize];
-                        runs[*c as usize] = *e;
+                    sorted.clear();
+                    sorted.resize(block.len(), K::HalfEdge::default());
+                    for h in block {
+                        let c = &mut start[keys.run(h, runs)];
+                        sorted[*c as usize] = *h;
                         *c += 1;
                     }
-                    // `start[v]` is now where run v + 1 starts.
+                    // `start[r]` is now where run r + 1 starts.
                     let mut from = 0;
-                    for v in 0..vertices {
-                        let run = &runs[from..start[v] as usize];
-                        from = start[v] as usize;
-                        if !couple_pairs(run, destination) {
-                            couple_run(
-                                run,
-                                &extra_key,
-                                (base as usize) + v,
-                                destination,
-                                &mut extra,
-                            );
+                    for r in 0..runs {
+                        let run = &sorted[from..start[r] as usize];
+                        from = start[r] as usize;
+                        if !couple_pairs(run, keys, destination) {
+                            couple_run(run, keys, destination, &mut extra);
                         }
                     }
-                    (extra, runs, start)
+                    (extra, sorted, start)
                 },
             )
             .map(|(extra, _, _)| extra)
@@ -236,74 +211,76 @@ impl Couples {
     }
 }
 
-/// Couple the half-edges of one vertex's run when it is at most [`RUN_WINDOW`] long
-/// and every edge in it has at most two: two on one edge couple when they run
-/// opposite ways. Returns false, having written nothing that [`couple_run`] will not
-/// overwrite, otherwise.
+/// Couple the half-edges of one run when it is at most [`HalfEdge::WINDOW`] long and
+/// every edge in it has at most two: two on one edge couple when they may. Returns
+/// false, having written nothing that [`couple_run`] will not overwrite, otherwise.
 #[inline]
-fn couple_pairs(run: &[RunEntry], destination: &SharedSlice<u32>) -> bool {
-    if run.len() > RUN_WINDOW {
+fn couple_pairs<K: EdgeKeys>(
+    run: &[K::HalfEdge],
+    keys: &K,
+    destination: &SharedSlice<u32>,
+) -> bool {
+    type H<K> = <K as EdgeKeys>::HalfEdge;
+    if run.len() > H::<K>::WINDOW {
         return false;
     }
-    // The larger vertices in a fixed window (a vertex index past every vertex in
-    // the spare lanes), compared all at once: lanes where e's edge is.
-    let mut larger = [RunEntry::NONE; RUN_WINDOW];
-    for (l, e) in larger.iter_mut().zip(run) {
-        *l = e.larger();
+    // The edges in a fixed window (an edge no half-edge has in the spare lanes),
+    // compared all at once: lanes where e's edge is.
+    let mut edges = [H::<K>::NO_EDGE; MAX_WINDOW];
+    for (l, e) in edges.iter_mut().zip(run) {
+        *l = e.edge();
     }
     let mut at_most_two = true;
     for (i, e) in run.iter().enumerate() {
-        let lanes = larger
+        let lanes = edges[..H::<K>::WINDOW]
             .iter()
             .enumerate()
-            .fold(0u32, |m, (j, &l)| m | ((l == e.larger()) as u32) << j);
+            .fold(0u32, |m, (j, &l)| m | ((l == e.edge()) as u32) << j);
         // `count_ones` is a library routine on baseline x86-64: with e's own lane
         // cleared, one more lane means a twin, two or more a shared edge.
         let others = lanes & !(1 << i);
         let one_other = (others != 0) & (others & others.wrapping_sub(1) == 0);
         at_most_two &= others & others.wrapping_sub(1) == 0;
         let other = run[(others.trailing_zeros() as usize).min(run.len() - 1)];
-        let linked = one_other & (other.forward() != e.forward());
-        let across = if linked { other.id + 1 } else { NO_COUPLE };
+        let linked = one_other && keys.may_couple(&other, e);
+        let across = if linked { other.id() + 1 } else { NO_COUPLE };
         // SAFETY: the run's half-edges are written by this thread only.
-        unsafe { destination.0.add(e.id as usize).write(across) };
+        unsafe { destination.0.add(e.id() as usize).write(across) };
     }
     at_most_two
 }
 
-/// Write the couples of the whole run of vertex `v`'s half-edges into `across`
-/// (through `destination`) and `extra`, as [`Couples::link`] describes.
-fn couple_run(
-    run: &[RunEntry],
-    extra_key: impl Fn(usize, u32, u32) -> u128,
-    v: usize,
+/// Write the couples of a whole run into `across` (through `destination`) and
+/// `extra`, as [`Couples::link`] describes.
+fn couple_run<K: EdgeKeys>(
+    run: &[K::HalfEdge],
+    keys: &K,
     destination: &SharedSlice<u32>,
     extra: &mut Vec<ExtraCouple>,
 ) {
-    let coupled = |i: usize, j: usize| run[i].forward() != run[j].forward();
+    let coupled = |i: usize, j: usize| keys.may_couple(&run[i], &run[j]);
     for (i, e) in run.iter().enumerate() {
         let on_edge: Vec<usize> = (0..run.len())
-            .filter(|&j| run[j].larger() == e.larger())
+            .filter(|&j| run[j].edge() == e.edge())
             .collect();
         if let [x, y] = on_edge[..] {
             let j = if x == i { y } else { x };
             let across_i = if coupled(i, j) {
-                run[j].id + 1
+                run[j].id() + 1
             } else {
                 NO_COUPLE
             };
             // SAFETY: the run's half-edges are written by this thread only.
-            unsafe { destination.0.add(e.id as usize).write(across_i) };
+            unsafe { destination.0.add(e.id() as usize).write(across_i) };
         } else if on_edge.len() == 1 {
             // SAFETY: as above.
-            unsafe { destination.0.add(e.id as usize).write(NO_COUPLE) };
+            unsafe { destination.0.add(e.id() as usize).write(NO_COUPLE) };
         } else if on_edge[0] == i {
             let extra_before = extra.len();
             for (rank, w) in on_edge.windows(2).enumerate() {
                 if coupled(w[0], w[1]) {
-                    let rank = (on_edge.len() - 1 - rank) as u32;
-                    let key = extra_key(v, e.larger(), rank);
-                    let (a, b) = (run[w[0]].id / 3, run[w[1]].id / 3);
+                    let key = keys.extra_key(e, (on_edge.len() - 1 - rank) as u32);
+                    let (a, b) = (run[w[0]].id() / 3, run[w[1]].id() / 3);
                     extra.push(ExtraCouple {
                         triangle: a,
                         neighbour: b,
@@ -324,7 +301,7 @@ fn couple_run(
             };
             for &j in &on_edge {
                 // SAFETY: as above.
-                unsafe { destination.0.add(run[j].id as usize).write(mark) };
+                unsafe { destination.0.add(run[j].id() as usize).write(mark) };
             }
         }
     }

@@ -177,6 +177,12 @@ proptest! {
     }
 
     #[test]
+    fn fast_compressed_equals_the_published_procedure(mesh in random_mesh()) {
+        let fast = compressed::pair_sah_compressed(&mesh);
+        prop_assert_eq!(&fast, &compressed::pair_sah_compressed_reference(&mesh));
+    }
+
+    #[test]
     fn every_method_gives_a_valid_pairing(mesh in random_mesh(), window in 1usize..4) {
         let greedy = pair_sah(&mesh);
         let raised = matching::raise(&mesh, &greedy, Some(1.0));
@@ -270,7 +276,8 @@ fn brute_force_maximum(mesh: &TriMesh) -> Option<usize> {
 
 /// Above 32k triangles and 16k vertices the half-edge table, the couples and the
 /// sort split their work over the pool's threads: the same pairing as one thread
-/// and as the published procedure, non-manifold edges included.
+/// and as the published procedure, non-manifold edges included; by index and by
+/// position (whose blocks are cells of space).
 #[test]
 fn parallel_parts_pair_like_one_thread() {
     let mut mesh = crate::mesh::weld_exact(&crate::scenes::scan_blob(80_000, 3)).mesh;
@@ -281,6 +288,7 @@ fn parallel_parts_pair_like_one_thread() {
     mesh.triangles.push([b, a, c]);
     mesh.triangles.push(mesh.triangles[5]);
     let reference = pair_sah_reference(&mesh);
+    let by_position = compressed::pair_sah_compressed_reference(&mesh);
     for threads in [1, 2, 3] {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -290,6 +298,11 @@ fn parallel_parts_pair_like_one_thread() {
             pool.install(|| pair_sah(&mesh)),
             reference,
             "{threads} threads"
+        );
+        assert_eq!(
+            pool.install(|| compressed::pair_sah_compressed(&mesh)),
+            by_position,
+            "{threads} threads, by position"
         );
     }
 }
@@ -306,6 +319,10 @@ fn tied_edge_areas_pair_like_the_published_procedure() {
         let fast = pair_sah(&mesh);
         assert_eq!(fast, pair_sah_reference(&mesh));
         assert!(fast.pair_ratio() > 0.85, "{}", fast.pair_ratio());
+        assert_eq!(
+            compressed::pair_sah_compressed(&mesh),
+            compressed::pair_sah_compressed_reference(&mesh)
+        );
     }
 }
 
@@ -336,5 +353,9 @@ fn long_vertex_runs_pair_like_the_published_procedure() {
         let fast = pair_sah(&mesh);
         assert_eq!(fast, pair_sah_reference(&mesh));
         assert!(fast.pairs.len() >= 10, "{fast:?}");
+        assert_eq!(
+            compressed::pair_sah_compressed(&mesh),
+            compressed::pair_sah_compressed_reference(&mesh)
+        );
     }
 }
