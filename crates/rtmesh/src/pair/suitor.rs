@@ -14,12 +14,14 @@
 //! The dual graph is kept per side of every triangle ([`Couples`]): the twin
 //! half-edge across it, or a mark that the side's edge has three or more half-edges,
 //! whose couples are listed apart with their keys ([`ExtraCouple`]). Twins are found
-//! block by block of vertices in cache ([`Couples::link`]). When no edge has more than
+//! block by block in cache ([`Couples::link`]); the pairing method says how its
+//! half-edges are keyed and blocked ([`EdgeKeys`]: by smaller vertex for indexed
+//! input, by cell of space and key hash for position keys). When no edge has more than
 //! two half-edges, a triangle's whole matching state is one byte: the order of its
 //! sides' keys and the side its suitor is across ([`match_by_side_ranks`]); else keys
 //! are `u128`s from the pairing method, computed when a triangle proposes.
-//! Cost: O(T) time (O(E · max degree) proposals at worst); 12 bytes per half-edge for
-//! the blocks, 4 for the twins and 1 per triangle for the state.
+//! Cost: O(T) time (O(E · max degree) proposals at worst); 12 or 16 bytes per
+//! half-edge for the blocks, 4 for the twins and 1 per triangle for the state.
 
 use super::{Pairing, UNPAIRED};
 use crate::mesh::{part_cursors, triangle_part_len, SharedSlice};
