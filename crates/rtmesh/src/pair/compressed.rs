@@ -16,14 +16,16 @@
 //! the key on trust.
 //!
 //! The fast route, [`pair_sah_compressed`], gives the same pairing with no sort, as
-//! the indexed route does (module `suitor`): the half-edges go to blocks and runs by a
-//! hash of their key, twins are the half-edges of one key in a run, and the Suitor
-//! algorithm finds the scan's matching. The corner check comes after, in mesh order,
-//! where a couple's two triangles are near each other in memory. Cost: O(T) time; 12
-//! bytes per half-edge for the keys, 16 for the blocks, 4 for the twins.
+//! the indexed route does (module `suitor`): the half-edges go to blocks by the cell
+//! of space their midpoint is in, and to runs within a block by a hash of their key;
+//! twins are the half-edges of one key in a run, and the Suitor algorithm finds the
+//! scan's matching. A block's triangles are near each other in space, and so, in a
+//! scanned mesh's order, in memory: the corner check of each couple is done there.
+//! Cost: O(T) time; 12 bytes per half-edge for the keys, 16 for the blocks, 4 for the
+//! twins.
 
 use super::suitor::{match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
-use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
+use super::{edge_bbsa, triangle_box, ActiveTriangles, Pairing, UNPAIRED};
 use crate::geom::Aabb;
 use crate::mesh::{triangle_part_len, TriMesh};
 use crate::pages::vec_on_huge_pages;
@@ -127,7 +129,7 @@ impl Quantiser {
             .into_par_iter()
             .with_min_len(1 << 14)
             .filter(|&t| active.get(t))
-            .map(|t| Aabb::from_points(&mesh.corners(t)))
+            .map(|t| triangle_box(mesh, t))
             .reduce(|| Aabb::EMPTY, Aabb::union);
         let field_max = ((1u32 << FIELD_BITS) - 1) as f32;
         Self {

@@ -102,7 +102,7 @@ const EXCLUDED: u8 = 0xff;
 
 impl Couples {
     /// The couples of the half-edges that `keys` gives: two half-edges couple when they
-    /// are the only two on their edge and [`HalfEdge::may_couple`]. On an edge of three
+    /// are the only two on their edge and [`EdgeKeys::may_couple`]. On an edge of three
     /// or more, neighbours in half-edge id order that may couple do, listed in
     /// [`Couples::extra`]: the `i`-th with key `extra_key(h, n - 1 - i)` for `n`
     /// half-edges, so that earlier couples rank higher.
