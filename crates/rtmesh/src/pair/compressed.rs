@@ -34,6 +34,8 @@ use rayon::prelude::*;
 
 /// Bits per quantised key field.
 const FIELD_BITS: u32 = 24;
+/// The largest quantised midpoint coordinate.
+const FIELD_MAX: f32 = ((1u32 << FIELD_BITS) - 1) as f32;
 
 /// Greedy pairing keyed by position: vertex indices are used only to read corners.
 /// The same pairing as [`pair_sah_compressed_reference`].
@@ -103,6 +105,12 @@ fn corners_opposite(mesh: &TriMesh, a: u32, b: u32) -> bool {
 /// each.
 type EdgeKey = [u32; 3];
 
+/// The quantised midpoint `[x, y, z]` of a key (as [`Quantiser::key`] packs it).
+#[inline]
+fn midpoint_fields([high, middle, low]: EdgeKey) -> [u32; 3] {
+    [high << 16 | middle >> 16, middle << 8 | low >> 24, low].map(|f| f & 0xff_ffff)
+}
+
 /// The key as one number (its order is the key's).
 #[inline]
 fn key_bits([high, middle, low]: EdgeKey) -> u128 {
@@ -131,24 +139,22 @@ impl Quantiser {
             .filter(|&t| active.get(t))
             .map(|t| triangle_box(mesh, t))
             .reduce(|| Aabb::EMPTY, Aabb::union);
-        let field_max = ((1u32 << FIELD_BITS) - 1) as f32;
         Self {
             min: bounds.min,
-            scale: Vec3::splat(field_max) / bounds.extent().max(Vec3::splat(f32::MIN_POSITIVE)),
+            scale: Vec3::splat(FIELD_MAX) / bounds.extent().max(Vec3::splat(f32::MIN_POSITIVE)),
         }
     }
 
     /// The key of edge `p–q` (symmetric in `p` and `q`).
     #[inline]
     fn key(&self, p: Vec3, q: Vec3) -> EdgeKey {
-        let field_max = ((1u32 << FIELD_BITS) - 1) as f32;
         // Nearest step, by truncating `x + 0.5` (`f32::round` is a library call on
         // baseline x86-64); NaN lands on 0. In range, a cast to i32 is one
         // instruction, where one to u32 goes through i64.
         let mid = ((p + q) * 0.5 - self.min) * self.scale;
         let [x, y, z] = mid
             .to_array()
-            .map(|f| (f.clamp(0.0, field_max) + 0.5) as i32 as u32);
+            .map(|f| (f.clamp(0.0, FIELD_MAX) + 0.5) as i32 as u32);
         let bbsa = edge_bbsa(p, q).to_bits() >> (31 - FIELD_BITS);
         [bbsa << 8 | x >> 16, x << 16 | y >> 8, y << 24 | z]
     }
@@ -161,7 +167,8 @@ const EXCLUDED_KEY: EdgeKey = [u32::MAX; 3];
 /// Half-edges per block of the twin search, roughly: a cell of space.
 const BLOCK_HALF_EDGES: usize = 1 << 11;
 
-/// The twin search of position-only input: blocks and runs by a hash of the key.
+/// The twin search of position-only input: blocks by the cell of space the edge's
+/// midpoint is in, runs within a block by a hash of the key.
 struct PositionKeys<'m> {
     mesh: &'m TriMesh,
     /// The key of half-edge `3t + k`, [`EXCLUDED_KEY`] for a triangle that takes no
@@ -207,7 +214,7 @@ impl<'m> PositionKeys<'m> {
         }
     }
 
-    /// A hash of `key` whose top bits pick the block, then the run.
+    /// A hash of `key` (its high half picks the run).
     #[inline]
     fn hash([high, middle, low]: EdgeKey) -> u64 {
         let x = ((high as u64) << 32 | middle as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
@@ -243,10 +250,8 @@ impl EdgeKeys for PositionKeys<'_> {
     /// The cell of the edge's midpoint.
     #[inline]
     fn block(&self, h: &PositionHalfEdge) -> usize {
-        let [high, middle, low] = h.key;
-        let (x, y, z) = (high << 16 | middle >> 16, middle << 8 | low >> 24, low);
-        let cell = |field: u32| (field & 0xff_ffff) as usize >> (FIELD_BITS - self.cell_bits);
-        (cell(x) << self.cell_bits | cell(y)) << self.cell_bits | cell(z)
+        let [x, y, z] = midpoint_fields(h.key).map(|f| f as usize >> (FIELD_BITS - self.cell_bits));
+        (x << self.cell_bits | y) << self.cell_bits | z
     }
 
     #[inline]
