@@ -166,20 +166,35 @@ fn random_mesh() -> impl Strategy<Value = TriMesh> {
         })
 }
 
+/// A pool of `threads` threads.
+fn pool(threads: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
+    /// On one thread (the Suitor matching) and on two (the matching in rounds).
     #[test]
     fn fast_greedy_equals_the_published_procedure(mesh in random_mesh()) {
-        let fast = pair_sah(&mesh);
-        prop_assert_eq!(&fast, &pair_sah_reference(&mesh));
-        assert_valid(&mesh, &fast);
+        let reference = pair_sah_reference(&mesh);
+        for threads in [1, 2] {
+            let fast = pool(threads).install(|| pair_sah(&mesh));
+            prop_assert_eq!(&fast, &reference, "{} threads", threads);
+            assert_valid(&mesh, &fast);
+        }
     }
 
     #[test]
     fn fast_compressed_equals_the_published_procedure(mesh in random_mesh()) {
-        let fast = compressed::pair_sah_compressed(&mesh);
-        prop_assert_eq!(&fast, &compressed::pair_sah_compressed_reference(&mesh));
+        let reference = compressed::pair_sah_compressed_reference(&mesh);
+        for threads in [1, 2] {
+            let fast = pool(threads).install(|| compressed::pair_sah_compressed(&mesh));
+            prop_assert_eq!(&fast, &reference, "{} threads", threads);
+        }
     }
 
     #[test]
@@ -274,36 +289,36 @@ fn brute_force_maximum(mesh: &TriMesh) -> Option<usize> {
     ))
 }
 
-/// Above 32k triangles and 16k vertices the half-edge table, the couples and the
-/// sort split their work over the pool's threads: the same pairing as one thread
-/// and as the published procedure, non-manifold edges included; by index and by
-/// position (whose blocks are cells of space).
+/// Above 32k triangles and 16k vertices the twin search and (with no edge of three or
+/// more half-edges) the matching split their work over the pool's threads: the same
+/// pairing as one thread and as the published procedure, with and without
+/// non-manifold edges; by index and by position (whose blocks are cells of space).
 #[test]
 fn parallel_parts_pair_like_one_thread() {
-    let mut mesh = crate::mesh::weld_exact(&crate::scenes::scan_blob(80_000, 3)).mesh;
+    let manifold = crate::mesh::weld_exact(&crate::scenes::scan_blob(80_000, 3)).mesh;
     // Three triangles on one edge, and a duplicate triangle, in different parts.
-    let [a, b, _] = mesh.triangles[10];
-    let far = mesh.triangles.len() as u32 - 1;
-    let c = mesh.triangles[far as usize][2];
-    mesh.triangles.push([b, a, c]);
-    mesh.triangles.push(mesh.triangles[5]);
-    let reference = pair_sah_reference(&mesh);
-    let by_position = compressed::pair_sah_compressed_reference(&mesh);
-    for threads in [1, 2, 3] {
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build()
-            .unwrap();
-        assert_eq!(
-            pool.install(|| pair_sah(&mesh)),
-            reference,
-            "{threads} threads"
-        );
-        assert_eq!(
-            pool.install(|| compressed::pair_sah_compressed(&mesh)),
-            by_position,
-            "{threads} threads, by position"
-        );
+    let mut shared = manifold.clone();
+    let [a, b, _] = shared.triangles[10];
+    let far = shared.triangles.len() as u32 - 1;
+    let c = shared.triangles[far as usize][2];
+    shared.triangles.push([b, a, c]);
+    shared.triangles.push(shared.triangles[5]);
+    for (name, mesh) in [("manifold", manifold), ("shared edge", shared)] {
+        let reference = pair_sah_reference(&mesh);
+        let by_position = compressed::pair_sah_compressed_reference(&mesh);
+        for threads in [1, 2, 3] {
+            let pool = pool(threads);
+            assert_eq!(
+                pool.install(|| pair_sah(&mesh)),
+                reference,
+                "{name}, {threads} threads"
+            );
+            assert_eq!(
+                pool.install(|| compressed::pair_sah_compressed(&mesh)),
+                by_position,
+                "{name}, {threads} threads, by position"
+            );
+        }
     }
 }
 
