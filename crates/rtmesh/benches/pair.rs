@@ -1,7 +1,7 @@
 //! Triangle pairing on the full Stanford dragon (871k triangles, welded) when the data
 //! is present, else on the 100k-triangle procedural blob: the published greedy (fast
-//! route on one thread and on two, and the plain reference), compressed position keys,
-//! window-2, and sah-max.
+//! route on one thread and on two, and the plain reference), compressed position keys
+//! (on one thread and on two), window-2, and sah-max.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rtmesh::mesh::weld_exact;
@@ -31,6 +31,9 @@ fn bench(c: &mut Criterion) {
     });
     group.bench_function(format!("sah-compressed/{name}"), |b| {
         b.iter(|| one_thread.install(|| compressed::pair_sah_compressed(&mesh)))
+    });
+    group.bench_function(format!("sah-compressed-2-threads/{name}"), |b| {
+        b.iter(|| two_threads.install(|| compressed::pair_sah_compressed(&mesh)))
     });
     group.bench_function(format!("window-2/{name}"), |b| {
         b.iter(|| window::pair_window(&mesh, 2))

@@ -16,8 +16,8 @@
 //! same matching: the scan's order is a strict total order on couples, and under one
 //! the greedy matching is the unique locally dominant one. Cost: O(T + V) time; 12
 //! bytes per half-edge for the blocks, 4 for the twins, 1 per triangle for the
-//! matching. The twin search splits its work over the rayon pool's threads; the
-//! matching stays on one.
+//! matching. The twin search splits its work over the rayon pool's threads, and so
+//! does the matching when there is more than one (in rounds, module `suitor`).
 
 use super::suitor::{match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};

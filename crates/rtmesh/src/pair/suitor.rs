@@ -18,8 +18,9 @@
 //! half-edges are keyed and blocked ([`EdgeKeys`]: by smaller vertex for indexed
 //! input, by cell of space and key hash for position keys). When no edge has more than
 //! two half-edges, a triangle's whole matching state is one byte: the order of its
-//! sides' keys and the side its suitor is across ([`match_by_side_ranks`]); else keys
-//! are `u128`s from the pairing method, computed when a triangle proposes.
+//! sides' keys and the side its suitor is across ([`match_by_side_ranks`]), and on
+//! several threads the same matching is found in rounds ([`match_in_rounds`]); else
+//! keys are `u128`s from the pairing method, computed when a triangle proposes.
 //! Cost: O(T) time (O(E · max degree) proposals at worst); 12 or 16 bytes per
 //! half-edge for the blocks, 4 for the twins and 1 per triangle for the state.
 
