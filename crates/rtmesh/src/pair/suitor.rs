@@ -424,12 +424,14 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
         }
         best
     };
-    // Whether t and the triangle it points at point at each other.
-    let mutual = |t: usize, choice: &[u8]| {
+    // Whether t and the triangle it points at point at each other (a pair), and
+    // whether t, pointing but unpaired, goes again.
+    let settle = |t: usize, choice: &[u8]| {
         let c = choice[t];
         let twin = across[3 * t + c.min(2) as usize].wrapping_sub(1);
         let u = ((twin / 3) as usize).min(n - 1);
-        (c != NO_SUITOR) & (choice[u] == (twin % 3) as u8)
+        let paired = (c != NO_SUITOR) & (choice[u] == (twin % 3) as u8);
+        (paired, (c != NO_SUITOR) & !paired)
     };
     // Round 1, over all triangles; its survivors in parts, one per thread.
     let part_len = triangle_part_len(n);
@@ -448,9 +450,9 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
             let mut part = Vec::with_capacity(chunk.len());
             for (i, r) in chunk.iter_mut().enumerate() {
                 let t = p * part_len + i;
-                let paired = mutual(t, &choice);
+                let (paired, again) = settle(t, &choice);
                 *r |= if paired { TAKEN } else { 0 };
-                if (choice[t] != NO_SUITOR) & !paired {
+                if again {
                     part.push(t as u32);
                 }
             }
@@ -479,11 +481,11 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
             let mut kept = 0;
             for i in 0..part.len() {
                 let t = part[i] as usize;
-                let paired = mutual(t, choice);
+                let (paired, again) = settle(t, choice);
                 // SAFETY: as above.
                 unsafe { *destination.0.add(t) |= if paired { TAKEN } else { 0 } };
                 part[kept] = t as u32;
-                kept += ((choice[t] != NO_SUITOR) & !paired) as usize;
+                kept += again as usize;
             }
             part.truncate(kept);
         });
@@ -499,7 +501,8 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
     })
 }
 
-/// The ranks of a paired triangle in [`match_in_rounds`] (no side ranks 3).
+/// The ranks of a paired triangle in [`match_in_rounds`]: every side's rank 3, which
+/// no free triangle has.
 const TAKEN: u8 = 0x3f;
 
 /// [`match_by_side_ranks`]' value for "no suitor" (and the rank worse than all).
