@@ -381,7 +381,7 @@ fn match_by_side_ranks(across: &[u32], mut state: Vec<u8>) -> Pairing {
     // suitor).
     Pairing::from_partner_fn(n, |t| {
         let side = state[t] >> 6;
-        let twin = across[3 * t + side.min(2) as usize].wrapping_sub(1);
+        let twin = twin_across(across, t, side);
         let u = ((twin / 3) as usize).min(n - 1);
         let mutual = (side != NO_SUITOR) & (state[u] >> 6 == (twin % 3) as u8);
         if mutual {
@@ -428,7 +428,7 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
     // whether t, pointing but unpaired, goes again.
     let settle = |t: usize, choice: &[u8]| {
         let c = choice[t];
-        let twin = across[3 * t + c.min(2) as usize].wrapping_sub(1);
+        let twin = twin_across(across, t, c);
         let u = ((twin / 3) as usize).min(n - 1);
         let paired = (c != NO_SUITOR) & (choice[u] == (twin % 3) as u8);
         (paired, (c != NO_SUITOR) & !paired)
@@ -492,7 +492,7 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
     }
     Pairing::from_partner_fn(n, |t| {
         let c = choice[t];
-        let twin = across[3 * t + c.min(2) as usize].wrapping_sub(1);
+        let twin = twin_across(across, t, c);
         if !free(ranks[t]) & (c != NO_SUITOR) {
             twin / 3
         } else {
@@ -504,6 +504,14 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
 /// The ranks of a paired triangle in [`match_in_rounds`]: every side's rank 3, which
 /// no free triangle has.
 const TAKEN: u8 = 0x3f;
+
+/// The twin half-edge across side `side` of triangle `t`, read without a branch: a
+/// side past 2 ([`NO_SUITOR`]) reads side 2, and a side with no couple gives
+/// `u32::MAX`; the caller rules both out.
+#[inline]
+fn twin_across(across: &[u32], t: usize, side: u8) -> u32 {
+    across[3 * t + side.min(2) as usize].wrapping_sub(1)
+}
 
 /// [`match_by_side_ranks`]' value for "no suitor" (and the rank worse than all).
 const NO_SUITOR: u8 = 3;
