@@ -21,8 +21,9 @@
 //! sides' keys and the side its suitor is across ([`match_by_side_ranks`]), and on
 //! several threads the same matching is found in rounds ([`match_in_rounds`]); else
 //! keys are `u128`s from the pairing method, computed when a triangle proposes.
-//! Cost: O(T) time (O(E · max degree) proposals at worst); 12 or 16 bytes per
-//! half-edge for the blocks, 4 for the twins and 1 per triangle for the state.
+//! Cost: O(T) time (O(E · max degree) proposals at worst, and O(L log L) for a run of
+//! L half-edges past the window); 12 or 16 bytes per half-edge for the blocks, 4 for
+//! the twins and 1 per triangle for the state.
 
 use super::{Pairing, UNPAIRED};
 use crate::mesh::{part_cursors, triangle_part_len, SharedSlice};
@@ -51,7 +52,7 @@ pub(super) struct Couples {
 /// A half-edge as [`Couples::link`] sorts and compares it.
 pub(super) trait HalfEdge: Copy + Default + Send + Sync {
     /// What tells the edges of one run apart.
-    type Edge: Copy + PartialEq;
+    type Edge: Copy + Ord;
     /// An edge that no half-edge has (the spare lanes of a window).
     const NO_EDGE: Self::Edge;
     /// Runs up to this long (at most [`MAX_WINDOW`]) are searched in a fixed window.
@@ -254,57 +255,57 @@ fn couple_pairs<K: EdgeKeys>(
 }
 
 /// Write the couples of a whole run into `across` (through `destination`) and
-/// `extra`, as [`Couples::link`] describes.
+/// `extra`, as [`Couples::link`] describes. The run's half-edges are sorted by edge
+/// (a stable sort: each edge's stay in id order), so that a long run (a fan's centre
+/// is the smaller vertex of thousands of edges) costs O(L log L), not O(L²).
 fn couple_run<K: EdgeKeys>(
     run: &[K::HalfEdge],
     keys: &K,
     destination: &SharedSlice<u32>,
     extra: &mut Vec<ExtraCouple>,
 ) {
-    let coupled = |i: usize, j: usize| keys.may_couple(&run[i], &run[j]);
-    for (i, e) in run.iter().enumerate() {
-        let on_edge: Vec<usize> = (0..run.len())
-            .filter(|&j| run[j].edge() == e.edge())
-            .collect();
-        if let [x, y] = on_edge[..] {
-            let j = if x == i { y } else { x };
-            let across_i = if coupled(i, j) {
-                run[j].id() + 1
-            } else {
-                NO_COUPLE
-            };
-            // SAFETY: the run's half-edges are written by this thread only.
-            unsafe { destination.0.add(e.id() as usize).write(across_i) };
-        } else if on_edge.len() == 1 {
-            // SAFETY: as above.
-            unsafe { destination.0.add(e.id() as usize).write(NO_COUPLE) };
-        } else if on_edge[0] == i {
-            let extra_before = extra.len();
-            for (rank, w) in on_edge.windows(2).enumerate() {
-                if coupled(w[0], w[1]) {
-                    let key = keys.extra_key(e, (on_edge.len() - 1 - rank) as u32);
-                    let (a, b) = (run[w[0]].id() / 3, run[w[1]].id() / 3);
-                    extra.push(ExtraCouple {
-                        triangle: a,
-                        neighbour: b,
-                        key,
-                    });
-                    extra.push(ExtraCouple {
-                        triangle: b,
-                        neighbour: a,
-                        key,
-                    });
-                }
+    let write = |i: usize, across: u32| {
+        // SAFETY: the run's half-edges are written by this thread only.
+        unsafe { destination.0.add(run[i].id() as usize).write(across) };
+    };
+    let mut by_edge: Vec<usize> = (0..run.len()).collect();
+    by_edge.sort_by_key(|&i| run[i].edge());
+    for on_edge in by_edge.chunk_by(|&a, &b| run[a].edge() == run[b].edge()) {
+        match *on_edge {
+            [i] => write(i, NO_COUPLE),
+            [i, j] => {
+                let coupled = keys.may_couple(&run[i], &run[j]);
+                write(i, if coupled { run[j].id() + 1 } else { NO_COUPLE });
+                write(j, if coupled { run[i].id() + 1 } else { NO_COUPLE });
             }
-            // Sides on an edge of only unpairable half-edges have no couple.
-            let mark = if extra.len() > extra_before {
-                SHARED_BY_MORE
-            } else {
-                NO_COUPLE
-            };
-            for &j in &on_edge {
-                // SAFETY: as above.
-                unsafe { destination.0.add(run[j].id() as usize).write(mark) };
+            _ => {
+                let extra_before = extra.len();
+                let first = &run[on_edge[0]];
+                for (rank, w) in on_edge.windows(2).enumerate() {
+                    if keys.may_couple(&run[w[0]], &run[w[1]]) {
+                        let key = keys.extra_key(first, (on_edge.len() - 1 - rank) as u32);
+                        let (a, b) = (run[w[0]].id() / 3, run[w[1]].id() / 3);
+                        extra.push(ExtraCouple {
+                            triangle: a,
+                            neighbour: b,
+                            key,
+                        });
+                        extra.push(ExtraCouple {
+                            triangle: b,
+                            neighbour: a,
+                            key,
+                        });
+                    }
+                }
+                // Sides on an edge of only unpairable half-edges have no couple.
+                let mark = if extra.len() > extra_before {
+                    SHARED_BY_MORE
+                } else {
+                    NO_COUPLE
+                };
+                for &j in on_edge {
+                    write(j, mark);
+                }
             }
         }
     }
@@ -342,6 +343,14 @@ pub(super) fn match_greedily(couples: Couples, side_keys: impl Fn(usize) -> [u12
 /// [`NO_SUITOR`]. The random reads and writes of the search touch one byte per
 /// triangle (in cache) instead of a 16-byte key and a 4-byte suitor.
 fn match_by_side_ranks(across: &[u32], mut state: Vec<u8>) -> Pairing {
+    propose_by_side_ranks(across, &mut state);
+    Pairing::from_partner_fn(state.len(), |t| suitor_partner(across, &state, t))
+}
+
+/// The proposals of [`match_by_side_ranks`], which leave every triangle's suitor in
+/// its state. A triangle whose state reads [`EXCLUDED`] neither proposes nor is
+/// proposed to.
+fn propose_by_side_ranks(across: &[u32], state: &mut [u8]) {
     let n = state.len();
     for first in 0..n {
         let mut proposer = first;
@@ -376,20 +385,23 @@ fn match_by_side_ranks(across: &[u32], mut state: Vec<u8>) -> Pairing {
             proposer = ((across[3 * v + displaced as usize] - 1) / 3) as usize;
         }
     }
-    // A pair: t's suitor is across side s of t, and t is across the side of the suitor
-    // that the suitor's suitor is across. Read without a branch (clamped when t has no
-    // suitor).
-    Pairing::from_partner_fn(n, |t| {
-        let side = state[t] >> 6;
-        let twin = twin_across(across, t, side);
-        let u = ((twin / 3) as usize).min(n - 1);
-        let mutual = (side != NO_SUITOR) & (state[u] >> 6 == (twin % 3) as u8);
-        if mutual {
-            u as u32
-        } else {
-            UNPAIRED
-        }
-    })
+}
+
+/// Triangle `t`'s partner after [`propose_by_side_ranks`]: its suitor, when it is its
+/// suitor's suitor. That is, t's suitor is across side s of t, and t is across the side
+/// of the suitor that the suitor's suitor is across. Read without a branch (clamped
+/// when t has no suitor).
+#[inline]
+fn suitor_partner(across: &[u32], state: &[u8], t: usize) -> u32 {
+    let side = state[t] >> 6;
+    let twin = twin_across(across, t, side);
+    let u = ((twin / 3) as usize).min(state.len() - 1);
+    let mutual = (side != NO_SUITOR) & (state[u] >> 6 == (twin % 3) as u8);
+    if mutual {
+        u as u32
+    } else {
+        UNPAIRED
+    }
 }
 
 /// [`match_by_side_ranks`]' matching on several threads, in rounds (the pointer
@@ -401,6 +413,14 @@ fn match_by_side_ranks(across: &[u32], mut state: Vec<u8>) -> Pairing {
 /// passes over the triangles in play, split over the pool's threads: one writes the
 /// pointers, the next reads them and marks the pairs. The dragon takes 8 rounds over
 /// 1.6 × its triangles in all.
+///
+/// A round pairs only the couples that are the largest at both ends, so along a chain
+/// of couples whose keys rise (the ring of a fan, whose spokes' areas rise with the
+/// angle) it pairs a few and the rounds grow as long as the chain: O(T²). So when a
+/// round keeps more than half of its triangles in play, the rest is left to Suitor on
+/// one thread, which passes over the paired triangles (their ranks read [`EXCLUDED`])
+/// and finds the greedy matching of the others; with the pairs found so far, that is
+/// the greedy matching of all.
 fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
     let n = ranks.len();
     // choice[t]: the side that t points across this round, or NO_SUITOR.
@@ -459,7 +479,9 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
             part
         })
         .collect();
-    while parts.iter().any(|part| !part.is_empty()) {
+    let in_play = |parts: &[Vec<u32>]| parts.iter().map(Vec::len).sum::<usize>();
+    let (mut players, mut survivors) = (n, in_play(&parts));
+    while survivors > 0 && 2 * survivors <= players {
         let destination = SharedSlice(choice.as_mut_ptr());
         let destination = &destination;
         let ranks_now = &ranks;
@@ -489,12 +511,18 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
             }
             part.truncate(kept);
         });
+        (players, survivors) = (survivors, in_play(&parts));
     }
+    if survivors > 0 {
+        propose_by_side_ranks(across, &mut ranks);
+    }
+    // The free triangles' suitor bits still read NO_SUITOR if Suitor did not run.
     Pairing::from_partner_fn(n, |t| {
         let c = choice[t];
-        let twin = twin_across(across, t, c);
-        if !free(ranks[t]) & (c != NO_SUITOR) {
-            twin / 3
+        if free(ranks[t]) {
+            suitor_partner(across, &ranks, t)
+        } else if c != NO_SUITOR {
+            twin_across(across, t, c) / 3
         } else {
             UNPAIRED
         }

@@ -322,6 +322,32 @@ fn parallel_parts_pair_like_one_thread() {
     }
 }
 
+/// A cylinder's caps are fans: each centre is the smaller vertex of a run of 2 × 60k
+/// half-edges, and the spokes' box areas rise with the angle over each quarter turn,
+/// a chain of couples that the matching in rounds would pair a few at a time. Both
+/// took O(T²) (minutes here); the long run is sorted by edge, and the rounds hand
+/// over to Suitor when they stall. Same pairing as the published procedure.
+#[test]
+fn long_fans_pair_like_the_published_procedure() {
+    let mesh = crate::scenes::fan_cylinder(60_000);
+    let reference = pair_sah_reference(&mesh);
+    let by_position = compressed::pair_sah_compressed_reference(&mesh);
+    assert!(reference.pair_ratio() > 0.99, "{}", reference.pair_ratio());
+    for threads in [1, 2] {
+        let pool = pool(threads);
+        assert_eq!(
+            pool.install(|| pair_sah(&mesh)),
+            reference,
+            "{threads} threads"
+        );
+        assert_eq!(
+            pool.install(|| compressed::pair_sah_compressed(&mesh)),
+            by_position,
+            "{threads} threads, by position"
+        );
+    }
+}
+
 /// On a regular grid every diagonal has one box area and every other edge area 0, so
 /// the order between couples rests on the vertex ids alone: the Suitor matching must
 /// still be the scan's, on the grid and on the grid with its axes turned.
