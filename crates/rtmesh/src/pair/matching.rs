@@ -20,8 +20,11 @@
 //! shrinking over the vertices the search touched (the per-search state lives in
 //! arrays stamped by search, so a search costs what it touches, not O(T)). A free
 //! vertex with no augmenting path never gains one later (Edmonds), so one pass over the
-//! free triangles reaches the maximum. Cost: O(T · touched) worst case; on scanned
+//! free triangles reaches the maximum; nor does any vertex of the failed search's
+//! (Hungarian) tree lie on a later path, so later searches pass those by. Cost:
+//! O(T · touched) worst case, where a failed search's touch is paid once; on scanned
 //! meshes paths are short and the pass takes about as long as the greedy pairing.
+//! Edges of many half-edges link O(k) pairs, not all ([`EDGE_ALL_PAIRS`]).
 
 use super::{triangle_box, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{HalfEdgeRuns, TriMesh};
@@ -29,6 +32,18 @@ use std::collections::VecDeque;
 
 /// Vertices a `sah-max` search may touch before it gives up.
 pub const SEARCH_LIMIT: usize = 4096;
+
+/// Edges of up to this many half-edges link every two that run opposite ways. On an
+/// edge of more (a fin, or a book of pages around one edge), all pairs would be O(k²)
+/// links: instead the half-edges of the direction with more, in id order, link each to
+/// a band of [`EDGE_BAND`] of the other direction's at the same relative place, so
+/// that every half-edge has a link, the edge alone can still pair as many as the
+/// smaller direction has, and the links are O(k). There the result can fall short of
+/// the true maximum.
+pub const EDGE_ALL_PAIRS: usize = 16;
+
+/// The band of [`EDGE_ALL_PAIRS`].
+const EDGE_BAND: usize = 9;
 
 const NONE: u32 = u32::MAX;
 
@@ -46,30 +61,53 @@ impl DualGraph {
         let active = ActiveTriangles::new(mesh);
         let runs = HalfEdgeRuns::build(mesh);
         let mut links: Vec<[u32; 2]> = Vec::with_capacity(runs.half_edge_count());
+        // Link half-edges `ha` and `hb` of one edge, running opposite ways, if their
+        // triangles may pair.
+        let mut link = |ha: u32, hb: u32| {
+            let (a, b) = (ha / 3, hb / 3);
+            if a == b || !active.get(a as usize) || !active.get(b as usize) {
+                return;
+            }
+            let admissible = partner[a as usize] == b
+                || limit.is_none_or(|lambda| {
+                    let (box_a, box_b) = (
+                        triangle_box(mesh, a as usize),
+                        triangle_box(mesh, b as usize),
+                    );
+                    box_a.union(box_b).half_area()
+                        <= lambda * (box_a.half_area() + box_b.half_area())
+                });
+            if admissible {
+                links.push([a, b]);
+            }
+        };
         runs.for_each_edge(|first, _, half_edges| {
-            for (i, &(_, ha)) in half_edges.iter().enumerate() {
-                for &(_, hb) in &half_edges[i + 1..] {
-                    let (a, b) = (ha / 3, hb / 3);
-                    let tri_a = mesh.triangles[a as usize];
-                    let tri_b = mesh.triangles[b as usize];
-                    // Opposite directions: the half-edges start at different ends.
-                    let opposite =
-                        (tri_a[(ha % 3) as usize] == first) != (tri_b[(hb % 3) as usize] == first);
-                    if a == b || !opposite || !active.get(a as usize) || !active.get(b as usize) {
-                        continue;
+            // Whether half-edge h starts at the edge's smaller vertex.
+            let forward = |h: u32| mesh.triangles[(h / 3) as usize][(h % 3) as usize] == first;
+            if half_edges.len() <= EDGE_ALL_PAIRS {
+                for (i, &(_, ha)) in half_edges.iter().enumerate() {
+                    for &(_, hb) in &half_edges[i + 1..] {
+                        if forward(ha) != forward(hb) {
+                            link(ha, hb);
+                        }
                     }
-                    let admissible = partner[a as usize] == b
-                        || limit.is_none_or(|lambda| {
-                            let (box_a, box_b) = (
-                                triangle_box(mesh, a as usize),
-                                triangle_box(mesh, b as usize),
-                            );
-                            box_a.union(box_b).half_area()
-                                <= lambda * (box_a.half_area() + box_b.half_area())
-                        });
-                    if admissible {
-                        links.push([a, b]);
-                    }
+                }
+                return;
+            }
+            let (ahead, back): (Vec<u32>, Vec<u32>) = half_edges
+                .iter()
+                .map(|&(_, h)| h)
+                .partition(|&h| forward(h));
+            let (more, fewer) = if ahead.len() >= back.len() {
+                (ahead, back)
+            } else {
+                (back, ahead)
+            };
+            for (i, &ha) in more.iter().enumerate() {
+                let centre = i * fewer.len() / more.len();
+                let from = centre.saturating_sub(EDGE_BAND / 2);
+                for &hb in fewer.iter().skip(from).take(EDGE_BAND) {
+                    link(ha, hb);
                 }
             }
         });
@@ -98,10 +136,24 @@ impl DualGraph {
     }
 }
 
+/// How a search for an augmenting path ended.
+enum Found {
+    /// A path, ending at this free vertex.
+    Path(u32),
+    /// No path: the vertices touched (the Hungarian tree) are never on one later.
+    None,
+    /// The search gave up at its limit.
+    GaveUp,
+}
+
 /// Edmonds' search state; entries are valid for the current search when stamped.
 struct Search<'g> {
     graph: &'g DualGraph,
     mate: Vec<u32>,
+    /// Vertices of the Hungarian tree of a search that found no path. Edmonds: such a
+    /// tree's vertices are on no augmenting path of this or any later matching, so
+    /// later searches pass them by, and each vertex is in at most one failed search.
+    dead: Vec<bool>,
     stamp: Vec<u32>,
     epoch: u32,
     parent: Vec<u32>,
@@ -121,6 +173,7 @@ impl<'g> Search<'g> {
         Self {
             graph,
             mate,
+            dead: vec![false; n],
             stamp: vec![0; n],
             epoch: 0,
             parent: vec![NONE; n],
@@ -181,9 +234,9 @@ impl<'g> Search<'g> {
         }
     }
 
-    /// Breadth-first search for an augmenting path from free `root`; returns its free
-    /// end. Gives up (None) after touching `limit` vertices.
-    fn find_path(&mut self, root: u32, limit: usize) -> Option<u32> {
+    /// Breadth-first search for an augmenting path from free `root`. Gives up after
+    /// touching `limit` vertices.
+    fn find_path(&mut self, root: u32, limit: usize) -> Found {
         self.epoch += 1;
         self.touched.clear();
         self.queue.clear();
@@ -192,9 +245,12 @@ impl<'g> Search<'g> {
         self.queue.push_back(root);
         while let Some(v) = self.queue.pop_front() {
             if self.touched.len() > limit {
-                return None;
+                return Found::GaveUp;
             }
             for &to in self.graph.of(v) {
+                if self.dead[to as usize] {
+                    continue;
+                }
                 self.touch(to);
                 if self.base[v as usize] == self.base[to as usize] || self.mate[v as usize] == to {
                     continue;
@@ -222,14 +278,17 @@ impl<'g> Search<'g> {
                 } else if self.parent[to as usize] == NONE {
                     self.parent[to as usize] = v;
                     if to_mate == NONE {
-                        return Some(to);
+                        return Found::Path(to);
                     }
                     self.in_queue[to_mate as usize] = true;
                     self.queue.push_back(to_mate);
                 }
             }
         }
-        None
+        for &v in &self.touched {
+            self.dead[v as usize] = true;
+        }
+        Found::None
     }
 
     /// Flip the path ending at free `end`.
@@ -258,8 +317,9 @@ pub fn raise(mesh: &TriMesh, start: &Pairing, pair_box_limit: Option<f32>) -> Pa
     };
     let mut search = Search::new(&graph, partner);
     for root in 0..n as u32 {
-        if search.mate[root as usize] == UNPAIRED && !graph.of(root).is_empty() {
-            if let Some(end) = search.find_path(root, limit) {
+        let free = search.mate[root as usize] == UNPAIRED && !search.dead[root as usize];
+        if free && !graph.of(root).is_empty() {
+            if let Found::Path(end) = search.find_path(root, limit) {
                 search.augment(end);
             }
         }

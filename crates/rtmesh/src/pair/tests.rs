@@ -348,6 +348,43 @@ fn long_fans_pair_like_the_published_procedure() {
     }
 }
 
+/// A book: `ahead` pages on edge 0 → 1 and `back` pages on edge 1 → 0, all around
+/// one spine.
+fn book(ahead: usize, back: usize) -> TriMesh {
+    let mut positions = vec![Vec3::ZERO, Vec3::Z];
+    let mut triangles = Vec::new();
+    for i in 0..ahead + back {
+        let angle = i as f32 / (ahead + back) as f32 * std::f32::consts::TAU;
+        positions.push(Vec3::new(angle.cos(), angle.sin(), 0.5));
+        let page = 2 + i as u32;
+        triangles.push(if i < ahead {
+            [0, 1, page]
+        } else {
+            [1, 0, page]
+        });
+    }
+    TriMesh::new(positions, triangles)
+}
+
+/// An edge of k half-edges, half each way, had O(k²) links in the dual graph of
+/// `sah-max` and `max` (hours for these books): now a band of them, with which the
+/// edge still pairs as many pages as the smaller side has.
+#[test]
+fn books_of_many_pages_pair_in_linear_links() {
+    for (ahead, back) in [(100_000, 100_000), (150_000, 50_000), (3, 200_000)] {
+        let mesh = book(ahead, back);
+        let greedy = pair_sah(&mesh);
+        let maximum = matching::raise(&mesh, &greedy, None);
+        assert_valid(&mesh, &maximum);
+        assert_eq!(
+            maximum.pairs.len(),
+            ahead.min(back),
+            "{ahead} + {back} pages"
+        );
+        assert_valid(&mesh, &matching::raise(&mesh, &greedy, Some(1.0)));
+    }
+}
+
 /// On a regular grid every diagonal has one box area and every other edge area 0, so
 /// the order between couples rests on the vertex ids alone: the Suitor matching must
 /// still be the scan's, on the grid and on the grid with its axes turned.
