@@ -304,22 +304,33 @@ fn parallel_parts_pair_like_one_thread() {
     shared.triangles.push([b, a, c]);
     shared.triangles.push(shared.triangles[5]);
     for (name, mesh) in [("manifold", manifold), ("shared edge", shared)] {
-        let reference = pair_sah_reference(&mesh);
-        let by_position = compressed::pair_sah_compressed_reference(&mesh);
-        for threads in [1, 2, 3] {
-            let pool = pool(threads);
-            assert_eq!(
-                pool.install(|| pair_sah(&mesh)),
-                reference,
-                "{name}, {threads} threads"
-            );
-            assert_eq!(
-                pool.install(|| compressed::pair_sah_compressed(&mesh)),
-                by_position,
-                "{name}, {threads} threads, by position"
-            );
-        }
+        assert_fast_routes_pair_like_the_references(&mesh, &[1, 2, 3], name);
     }
+}
+
+/// Both fast routes, by index and by position, give the published procedures'
+/// pairings of `mesh` in a pool of each of `thread_counts`; returns the indexed one.
+fn assert_fast_routes_pair_like_the_references(
+    mesh: &TriMesh,
+    thread_counts: &[usize],
+    what: &str,
+) -> Pairing {
+    let reference = pair_sah_reference(mesh);
+    let by_position = compressed::pair_sah_compressed_reference(mesh);
+    for &threads in thread_counts {
+        let pool = pool(threads);
+        assert_eq!(
+            pool.install(|| pair_sah(mesh)),
+            reference,
+            "{what}, {threads} threads"
+        );
+        assert_eq!(
+            pool.install(|| compressed::pair_sah_compressed(mesh)),
+            by_position,
+            "{what}, {threads} threads, by position"
+        );
+    }
+    reference
 }
 
 /// A cylinder's caps are fans: each centre is the smaller vertex of a run of 2 × 60k
@@ -330,22 +341,8 @@ fn parallel_parts_pair_like_one_thread() {
 #[test]
 fn long_fans_pair_like_the_published_procedure() {
     let mesh = crate::scenes::fan_cylinder(60_000);
-    let reference = pair_sah_reference(&mesh);
-    let by_position = compressed::pair_sah_compressed_reference(&mesh);
+    let reference = assert_fast_routes_pair_like_the_references(&mesh, &[1, 2], "fans");
     assert!(reference.pair_ratio() > 0.99, "{}", reference.pair_ratio());
-    for threads in [1, 2] {
-        let pool = pool(threads);
-        assert_eq!(
-            pool.install(|| pair_sah(&mesh)),
-            reference,
-            "{threads} threads"
-        );
-        assert_eq!(
-            pool.install(|| compressed::pair_sah_compressed(&mesh)),
-            by_position,
-            "{threads} threads, by position"
-        );
-    }
 }
 
 /// A book: `ahead` pages on edge 0 → 1 and `back` pages on edge 1 → 0, all around
