@@ -42,8 +42,9 @@ pub const SEARCH_LIMIT: usize = 4096;
 /// the true maximum.
 pub const EDGE_ALL_PAIRS: usize = 16;
 
-/// The band of [`EDGE_ALL_PAIRS`].
-const EDGE_BAND: usize = 9;
+/// The band of [`EDGE_ALL_PAIRS`]: how many half-edges of the other direction each
+/// half-edge of an edge's larger direction links to.
+pub const EDGE_BAND: usize = 9;
 
 const NONE: u32 = u32::MAX;
 
