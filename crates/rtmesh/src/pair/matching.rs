@@ -87,8 +87,9 @@ impl DualGraph {
             let forward = |h: u32| mesh.triangles[(h / 3) as usize][(h % 3) as usize] == first;
             if half_edges.len() <= EDGE_ALL_PAIRS {
                 for (i, &(_, ha)) in half_edges.iter().enumerate() {
+                    let ahead = forward(ha);
                     for &(_, hb) in &half_edges[i + 1..] {
-                        if forward(ha) != forward(hb) {
+                        if forward(hb) != ahead {
                             link(ha, hb);
                         }
                     }

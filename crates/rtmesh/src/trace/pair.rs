@@ -9,17 +9,18 @@
 //! `p = v0 − v1`, `s`, `q = v3 − v1` of its four pairs in one row of twelve lanes, so
 //! the eight triangles' first edges `[s | q]` and second edges `[p | s]` are two
 //! overlapping loads of that row: 224 bytes for eight triangles, against 320 for two
-//! [`super::triangle::Triangle4`]s. One Möller–Trumbore pass over eight lanes tests them all, in
-//! 256-bit AVX registers where the CPU has them (as Embree's quad leaves are tested on
-//! AVX, both triangles of four quads at once) and as `wide::f32x8` elsewhere: the same
-//! operations in the same order, so the same hits. One pair counts as one pair test.
+//! [`super::triangle::Triangle4`]s. One Möller–Trumbore pass over eight lanes tests
+//! them all, in 256-bit AVX registers where the CPU has them (as Embree's quad leaves
+//! are tested on AVX, both triangles of four quads at once) and as `wide::f32x8`
+//! elsewhere: the same operations in the same order, so the same hits. One pair counts
+//! as one pair test.
 //!
 //! An earlier test shared arithmetic instead of lanes: B's first barycentric numerator
 //! `T · (D × s)` is `−D · (T × s)`, which A computes, so four pairs in 4-wide lanes
 //! took three cross and seven dot products per pair instead of four and eight. On
 //! eight lanes A and B run side by side in the same instructions, so that saving is
-//! gone and the leaf test costs what one [`super::triangle::Triangle4`] test costs; the arithmetic-
-//! sharing form traced no faster than unpaired triangle leaves
+//! gone and the leaf test costs what one [`super::triangle::Triangle4`] test costs;
+//! the arithmetic-sharing form traced no faster than unpaired triangle leaves
 //! (`rtmesh bench pairing`), this one does.
 //!
 //! A single (unpaired) triangle is a pair whose B has zero edges: its determinant is 0
@@ -104,7 +105,8 @@ pub const PAIR4_LANES: usize = 4;
 
 /// Up to four pairs, structure of arrays, laid out so that their eight triangles are
 /// eight lanes of one Möller–Trumbore test (A of pairs 0–3 in lanes 0–3, B in 4–7).
-/// 224 bytes for up to eight triangles, against 320 for two [`super::triangle::Triangle4`]s.
+/// 224 bytes for up to eight triangles, against 320 for two
+/// [`super::triangle::Triangle4`]s.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(32))]
 pub struct Pair4 {
