@@ -238,6 +238,122 @@ proptest! {
     }
 }
 
+/// A `w` × `h` grid of unit cells, each cut along a diagonal its bit in `diagonals`
+/// picks (so vertices have odd valences, and the dual graph odd cycles), with the
+/// triangles whose bit in `holes` is set left out.
+fn cut_grid(w: usize, h: usize, diagonals: u128, holes: u128) -> TriMesh {
+    let vertex = |i: usize, j: usize| (j * (w + 1) + i) as u32;
+    let positions = (0..=h)
+        .flat_map(|j| (0..=w).map(move |i| Vec3::new(i as f32, j as f32, 0.0)))
+        .collect();
+    let mut triangles = Vec::new();
+    for j in 0..h {
+        for i in 0..w {
+            let cell = j * w + i;
+            let [a, b, c, d] = [
+                vertex(i, j),
+                vertex(i + 1, j),
+                vertex(i + 1, j + 1),
+                vertex(i, j + 1),
+            ];
+            let halves = if diagonals >> cell & 1 == 0 {
+                [[a, b, c], [a, c, d]]
+            } else {
+                [[a, b, d], [b, c, d]]
+            };
+            for (k, half) in halves.into_iter().enumerate() {
+                if holes >> ((2 * cell + k) % 128) & 1 == 0 {
+                    triangles.push(half);
+                }
+            }
+        }
+    }
+    TriMesh::new(positions, triangles)
+}
+
+/// The size of a maximum matching of the graph on `n` vertices with edges `edges`, by
+/// Lovász's randomised method: half the rank of the Tutte matrix (`x_ij` above the
+/// diagonal for edge `ij`, `-x_ij` below) with random `x_ij` modulo a prime. The rank
+/// falls short with probability at most n / p.
+fn tutte_rank_maximum(n: usize, edges: &[(usize, usize)], seed: u64) -> usize {
+    const P: u64 = (1 << 61) - 1;
+    let mul = |a: u64, b: u64| (a as u128 * b as u128 % P as u128) as u64;
+    let mut state = seed | 1;
+    let mut random = || {
+        // xorshift64*
+        state ^= state >> 12;
+        state ^= state << 25;
+        state ^= state >> 27;
+        state.wrapping_mul(0x2545_f491_4f6c_dd1d) % (P - 1) + 1
+    };
+    let mut m = vec![vec![0u64; n]; n];
+    for &(a, b) in edges {
+        let x = random();
+        m[a][b] = x;
+        m[b][a] = P - x;
+    }
+    let power = |mut base: u64, mut e: u64| {
+        let mut r = 1;
+        while e > 0 {
+            if e & 1 == 1 {
+                r = mul(r, base);
+            }
+            base = mul(base, base);
+            e >>= 1;
+        }
+        r
+    };
+    let mut rank = 0;
+    for column in 0..n {
+        let Some(pivot) = (rank..n).find(|&r| m[r][column] != 0) else {
+            continue;
+        };
+        m.swap(rank, pivot);
+        let inverse = power(m[rank][column], P - 2);
+        let (pivot_rows, below) = m.split_at_mut(rank + 1);
+        let pivot_row = &pivot_rows[rank][column..];
+        for row in below {
+            let factor = mul(row[column], inverse);
+            if factor != 0 {
+                for (x, &p) in row[column..].iter_mut().zip(pivot_row) {
+                    *x = (*x + P - mul(factor, p)) % P;
+                }
+            }
+        }
+        rank += 1;
+    }
+    rank / 2
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Grids of up to 200 triangles with odd valences and holes: many blossoms, nested
+    /// ones among them. `max` (from no pairs, and from the greedy pairing) reaches the
+    /// maximum that the Tutte matrix's rank gives.
+    #[test]
+    fn max_reaches_the_tutte_rank_on_cut_grids(
+        (w, h) in (2usize..11, 2usize..11),
+        diagonals in any::<u128>(),
+        holes in any::<u128>().prop_map(|h| h & h.rotate_left(7)),
+        seed in any::<u64>(),
+    ) {
+        let mesh = cut_grid(w, h, diagonals, holes);
+        let n = mesh.triangle_count();
+        let edges: Vec<(usize, usize)> = (0..n)
+            .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
+            .filter(|&(a, b)| shared_side(&mesh.triangles[a], &mesh.triangles[b]).is_some())
+            .collect();
+        let exact = tutte_rank_maximum(n, &edges, seed);
+        let none = Pairing::from_partners(&vec![UNPAIRED; n]);
+        for start in [none, pair_sah(&mesh)] {
+            let maximum = matching::raise(&mesh, &start, None);
+            assert_valid(&mesh, &maximum);
+            prop_assert_eq!(maximum.pairs.len(), exact);
+        }
+    }
+}
+
 /// Maximum matching size by exhaustive search with memoisation over the set of free
 /// triangles (meshes of up to 20 triangles), else None.
 fn brute_force_maximum(mesh: &TriMesh) -> Option<usize> {
