@@ -1,11 +1,12 @@
 //! Triangle pairing on the full Stanford dragon (871k triangles, welded) when the data
 //! is present, else on the 100k-triangle procedural blob: the published greedy (fast
 //! route on one thread and on two, and the plain reference), compressed position keys
-//! (on one thread and on two), window-2, and sah-max.
+//! (on one thread and on two), window-2, and the augmenting paths of sah-max (default
+//! pair box limit) and max.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rtmesh::mesh::weld_exact;
-use rtmesh::pair::{compressed, greedy, matching, window};
+use rtmesh::pair::{compressed, greedy, matching, window, PairSettings};
 
 fn bench(c: &mut Criterion) {
     let (name, mesh) = rtmesh::data::dragon_or_blob();
@@ -39,8 +40,12 @@ fn bench(c: &mut Criterion) {
         b.iter(|| window::pair_window(&mesh, 2))
     });
     let greedy = greedy::pair_sah(&mesh);
+    let limit = PairSettings::default().pair_box_limit;
     group.bench_function(format!("sah-max-augment/{name}"), |b| {
-        b.iter(|| matching::raise(&mesh, &greedy, Some(1.0)))
+        b.iter(|| matching::raise(&mesh, &greedy, Some(limit)))
+    });
+    group.bench_function(format!("max-augment/{name}"), |b| {
+        b.iter(|| matching::raise(&mesh, &greedy, None))
     });
     group.finish();
 }

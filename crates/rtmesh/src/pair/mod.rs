@@ -100,8 +100,11 @@ pub struct PairSettings {
     /// always optimises.
     pub prescan_threshold: Option<f64>,
     /// `sah-max` adds a pair only when its box's surface area is at most this times
-    /// the sum of the two triangles' box areas (1.0: one box test on the pair costs
-    /// no more, by SAH, than two on the triangles).
+    /// the sum of the two triangles' box areas. At 1.0 one box test on the pair costs
+    /// no more, by SAH, than two on the triangles, but that bars 2% of the dragon's
+    /// couples (it pairs 97.78%); the default 1.25 lets the box grow by a quarter and
+    /// pairs 99.99% of the dragon and 100.00% of the bunny, with the same box tests
+    /// per ray within 0.5%.
     pub pair_box_limit: f32,
 }
 
@@ -110,7 +113,7 @@ impl Default for PairSettings {
         Self {
             method: PairMethod::Sah,
             prescan_threshold: Some(0.85),
-            pair_box_limit: 1.0,
+            pair_box_limit: 1.25,
         }
     }
 }
