@@ -92,14 +92,14 @@ enum Command {
     /// Find what makes a mesh slow to ray trace (after NVIDIA's advice).
     ///
     /// Per geometry: elongated triangles (box mostly empty space, or long and thin),
-    /// fans, degenerate, inactive (NaN), infinite and out-of-range triangles,
-    /// alpha-tested triangles mixed with opaque ones, geometries whose pieces are far
-    /// apart, and geometries whose boxes overlap. Each finding has a count, the worst
-    /// offenders' ids, a severity, figures and one line of advice. The grouping
-    /// findings add the two-level SAH cost (TLAS over instances, each charged its
-    /// BLAS's cost) of the scene as it is and as `repair --split-scattered
-    /// --merge-overlapping` would regroup it: an estimate, which repair checks with
-    /// probe rays before it keeps a regrouping.
+    /// fans, degenerate, inactive (NaN), infinite and out-of-range triangles, duplicate
+    /// and back-to-back (mirrored) triangles, alpha-tested triangles mixed with opaque
+    /// ones, geometries whose pieces are far apart, and geometries whose boxes overlap.
+    /// Each finding has a count, the worst offenders' ids, a severity, figures and one
+    /// line of advice. The grouping findings add the two-level SAH cost (TLAS over
+    /// instances, each charged its BLAS's cost) of the scene as it is and as `repair
+    /// --split-scattered --merge-overlapping` would regroup it: an estimate, which
+    /// repair checks with probe rays before it keeps a regrouping.
     Lint {
         /// The mesh file, or builtin:NAME.
         mesh: String,
@@ -121,7 +121,8 @@ enum Command {
     /// Fix what lint finds, write the result, and measure the gain with the tracer.
     ///
     /// Welds identical positions, removes degenerate triangles (or with --inactive
-    /// points them at a NaN vertex, keeping triangle ids), with --split-alpha separates
+    /// points them at a NaN vertex, keeping triangle ids), removes copies of earlier
+    /// triangles (same corners, same winding), with --split-alpha separates
     /// alpha-tested from opaque triangles, with --split-scattered puts
     /// each far-apart piece of a geometry in its own geometry, and with --split-elongated
     /// splits elongated triangles by conforming longest-edge bisection (neighbours
@@ -160,6 +161,10 @@ enum Command {
         /// Make degenerate triangles inactive (NaN) instead of removing them.
         #[arg(long)]
         inactive: bool,
+        /// Keep triangles that repeat an earlier triangle's corners and winding (by
+        /// default they are removed; mirrored copies are always kept).
+        #[arg(long)]
+        keep_duplicates: bool,
         /// Most output triangles per input triangle when splitting.
         #[arg(long, default_value_t = 2.0)]
         budget: f32,
@@ -669,6 +674,7 @@ fn run(cli: Cli) -> Result<()> {
             split_alpha,
             merge_overlapping,
             inactive,
+            keep_duplicates,
             budget,
             empty_space,
             aspect,
@@ -684,6 +690,7 @@ fn run(cli: Cli) -> Result<()> {
                 } else {
                     Degenerate::Remove
                 },
+                remove_duplicates: !keep_duplicates,
                 split_elongated,
                 force_split,
                 split_scattered,
@@ -715,9 +722,10 @@ fn run(cli: Cli) -> Result<()> {
                 print_json(&value)
             } else {
                 println!(
-                    "{mesh}: {} → {} triangles; {} vertices welded, {} degenerate removed, {} made inactive, {} edges split{}",
+                    "{mesh}: {} → {} triangles; {} vertices welded, {} degenerate removed, {} made inactive, {} duplicates removed, {} edges split{}",
                     report.triangles_in, report.triangles_out, report.merged_vertices,
-                    report.removed_degenerate, report.made_inactive, report.split_edges,
+                    report.removed_degenerate, report.made_inactive, report.removed_duplicates,
+                    report.split_edges,
                     if report.budget_reached {
                         " (budget reached)"
                     } else if split_elongated
@@ -1268,9 +1276,10 @@ fn bench_pairing(
     all_methods.extend(methods.iter().filter(|&&m| m != PairMethod::Window(2)));
     if !json {
         println!(
-            "{:<20} {:<14} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7}",
+            "{:<20} {:<14} {:<8} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>8} {:>7} {:>7} {:>7} {:>7}",
             "mesh",
             "method",
+            "workload",
             "pair s",
             "paired",
             "rays",
@@ -1387,8 +1396,8 @@ fn bench_pairing(
                     );
                 } else {
                     println!(
-                        "{:<20} {:<14} {:>9.4} {:>7.2}% {:>8} {:>8.2} {:>9.3} {:>9.3} {:>8.2} {:>6.1}% {:>6.1}% {:>6.1}% {:>6.2}%",
-                        name, format!("{} {}", row.method, kind.name()), row.pair_seconds, 100.0 * row.pair_ratio,
+                        "{:<20} {:<14} {:<8} {:>9.4} {:>7.2}% {:>8} {:>8.2} {:>9.3} {:>9.3} {:>8.2} {:>6.1}% {:>6.1}% {:>6.1}% {:>6.2}%",
+                        name, row.method, kind.name(), row.pair_seconds, 100.0 * row.pair_ratio,
                         run.rays, run.box_tests_per_ray, run.tri_tests_per_ray, run.pair_tests_per_ray, mrays,
                         d_box, d_tests, d_mrays, 100.0 * same
                     );

@@ -41,7 +41,7 @@ pub enum Severity {
 pub struct Finding {
     /// Short name: `elongated-triangles`, `fans`, `degenerate-triangles`,
     /// `inactive-triangles`, `out-of-range-indices`, `infinite-positions`,
-    /// `mixed-alpha`, `stacked-alpha`, `scattered-geometry`, `overlapping-geometries`,
+    /// `duplicate-triangles`, `back-to-back-triangles`, `mixed-alpha`, `stacked-alpha`, `scattered-geometry`, `overlapping-geometries`,
     /// `deforming-mesh`.
     pub kind: &'static str,
     /// How serious.
@@ -210,6 +210,7 @@ pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
         }
         lint_triangles(g, mesh, &shapes, settings, &mut findings);
         lint_broken(g, mesh, &validation, settings, &mut findings);
+        lint_duplicates(g, mesh, settings, &mut findings);
         lint_alpha(g, mesh, settings, &mut findings);
         pieces.push(Pieces::of(mesh));
         lint_pieces(g, &pieces[g], settings, &mut findings);
@@ -382,6 +383,43 @@ fn lint_broken(
                 count: ids.len(),
                 worst: ids.iter().copied().take(settings.worst).collect(),
                 figures: vec![],
+                advice,
+            });
+        }
+    }
+}
+
+/// Triangles on the corners of an earlier one ([`crate::mesh::duplicates`]).
+fn lint_duplicates(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut Vec<Finding>) {
+    let found = crate::mesh::duplicates(mesh);
+    for (kind, severity, ids, advice) in [
+        (
+            "duplicate-triangles",
+            Severity::Warning,
+            found.repeated,
+            "copies of a triangle (same corners, same winding) are tested again by every \
+             ray that reaches them and hide nothing: remove them (rtmesh repair does)",
+        ),
+        (
+            "back-to-back-triangles",
+            Severity::Info,
+            found.back_to_back,
+            "a triangle and its mirror (same corners, opposite winding) make a surface \
+             two-sided for a rasteriser; a ray tracer without back-face culling needs \
+             only one, and tests both",
+        ),
+    ] {
+        if !ids.is_empty() {
+            findings.push(Finding {
+                kind,
+                severity,
+                geometry: g,
+                count: ids.len(),
+                worst: ids.iter().copied().take(settings.worst).collect(),
+                figures: vec![(
+                    "share_of_triangles",
+                    ids.len() as f64 / mesh.triangle_count() as f64,
+                )],
                 advice,
             });
         }

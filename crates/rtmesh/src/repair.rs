@@ -15,6 +15,8 @@
 //!   top level and double the primary rays' box tests.
 //! - Degenerate triangles (repeated indices, zero area): removed, or made inactive
 //!   (all three corners NaN, the DXR convention) so that triangle ids stay put.
+//! - Duplicate triangles (the corners and winding of an earlier triangle, see
+//!   [`crate::mesh::duplicates`]): removed; mirrored copies (opposite winding) stay.
 //! - Elongated triangles: conforming longest-edge bisection (Rivara, "New longest-edge
 //!   algorithms for the refinement and/or improvement of unstructured triangulations",
 //!   IJNME 1997). Each round follows, from every triangle whose box is mostly empty,
@@ -33,7 +35,7 @@
 //!   a BVH build, O(T log T), and 8192 probe rays.
 
 use crate::lint::{LintSettings, TriangleShape};
-use crate::mesh::{validate, weld_exact, EdgeAdjacency, Scene, TriMesh, NO_EDGE};
+use crate::mesh::{duplicates, validate, weld_exact, EdgeAdjacency, Scene, TriMesh, NO_EDGE};
 use glam::Vec3;
 use serde::Serialize;
 
@@ -56,6 +58,8 @@ pub struct RepairSettings {
     pub weld: bool,
     /// Degenerate triangles.
     pub degenerate: Degenerate,
+    /// Remove triangles with the corners and winding of an earlier triangle.
+    pub remove_duplicates: bool,
     /// Split elongated triangles (as [`LintSettings`] define them).
     pub split_elongated: bool,
     /// Keep every split (to the budget) even where the tracer's probe rays say it does
@@ -83,6 +87,7 @@ impl Default for RepairSettings {
         Self {
             weld: true,
             degenerate: Degenerate::Remove,
+            remove_duplicates: true,
             split_elongated: false,
             force_split: false,
             lint: LintSettings::default(),
@@ -107,6 +112,8 @@ pub struct RepairReport {
     pub removed_degenerate: usize,
     /// Degenerate triangles made inactive.
     pub made_inactive: usize,
+    /// Duplicate triangles removed.
+    pub removed_duplicates: usize,
     /// Edges split.
     pub split_edges: usize,
     /// Elongated triangles before.
@@ -181,10 +188,7 @@ pub fn repair_mesh(mesh: &TriMesh, settings: &RepairSettings) -> (Repaired, Repa
         let validation = validate(&mesh);
         let degenerate = validation.degenerate();
         if settings.degenerate == Degenerate::Remove {
-            let keep: Vec<bool> = (0..mesh.triangle_count() as u32)
-                .map(|t| degenerate.binary_search(&t).is_err())
-                .collect();
-            retain_triangles(&mut mesh, &mut input_triangle, &keep);
+            remove_triangles(&mut mesh, &mut input_triangle, &degenerate);
             report.removed_degenerate = degenerate.len();
         } else if !degenerate.is_empty() {
             let nan = mesh.positions.len() as u32;
@@ -194,6 +198,11 @@ pub fn repair_mesh(mesh: &TriMesh, settings: &RepairSettings) -> (Repaired, Repa
             }
             report.made_inactive = degenerate.len();
         }
+    }
+    if settings.remove_duplicates {
+        let repeated = duplicates(&mesh).repeated;
+        remove_triangles(&mut mesh, &mut input_triangle, &repeated);
+        report.removed_duplicates = repeated.len();
     }
     if settings.split_elongated {
         let budget = (settings.triangle_budget.max(1.0) * report.triangles_in as f32) as usize;
@@ -245,6 +254,7 @@ pub fn repair(scene: &Scene, settings: &RepairSettings) -> (Scene, RepairMap, Re
         total.triangles_out += report.triangles_out;
         total.merged_vertices += report.merged_vertices;
         total.removed_degenerate += report.removed_degenerate;
+        total.removed_duplicates += report.removed_duplicates;
         total.made_inactive += report.made_inactive;
         total.split_edges += report.split_edges;
         total.elongated_before += report.elongated_before;
@@ -531,8 +541,15 @@ fn split_pieces(repaired: &Repaired, piece: &[u32], count: usize) -> Vec<Repaire
     parts
 }
 
-/// Keep the triangles (and their attributes and input ids) where `keep` is true.
-fn retain_triangles(mesh: &mut TriMesh, input_triangle: &mut Vec<u32>, keep: &[bool]) {
+/// Remove the triangles `ids` (ascending), with their attributes, from `mesh` and
+/// their input ids from `input_triangle`.
+fn remove_triangles(mesh: &mut TriMesh, input_triangle: &mut Vec<u32>, ids: &[u32]) {
+    if ids.is_empty() {
+        return;
+    }
+    let keep: Vec<bool> = (0..mesh.triangle_count() as u32)
+        .map(|t| ids.binary_search(&t).is_err())
+        .collect();
     fn kept<T: Copy>(values: &[T], keep: &[bool]) -> Vec<T> {
         values
             .iter()
@@ -541,10 +558,10 @@ fn retain_triangles(mesh: &mut TriMesh, input_triangle: &mut Vec<u32>, keep: &[b
             .map(|(&v, _)| v)
             .collect()
     }
-    mesh.triangles = kept(&mesh.triangles, keep);
-    mesh.material_ids = kept(&mesh.material_ids, keep);
-    mesh.alpha_tested = kept(&mesh.alpha_tested, keep);
-    *input_triangle = kept(input_triangle, keep);
+    mesh.triangles = kept(&mesh.triangles, &keep);
+    mesh.material_ids = kept(&mesh.material_ids, &keep);
+    mesh.alpha_tested = kept(&mesh.alpha_tested, &keep);
+    *input_triangle = kept(input_triangle, &keep);
 }
 
 /// Least share of the probe rays' tests the splits must save to be kept.

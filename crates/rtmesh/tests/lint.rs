@@ -365,6 +365,73 @@ fn degenerates_are_removed_or_made_inactive() {
     );
 }
 
+/// Copies of grid triangles (by position and by index) and a mirrored copy: lint
+/// names each kind with its ids, repair drops the copies only, the map points at the
+/// triangles kept, and rays hit the same surfaces.
+#[test]
+fn duplicates_are_found_and_removed() {
+    let grid = grid(4, Vec3::ZERO);
+    let mut mesh = with(grid.clone(), &[grid.corners(5), grid.corners(9)]);
+    let [a, b, c] = grid.triangles[5];
+    for tri in [[a, b, c], [c, b, a]] {
+        mesh.triangles.push(tri);
+        mesh.material_ids.push(0);
+        mesh.alpha_tested.push(false);
+    }
+    // 32 grid triangles, then copies of 5 and 9 by position (32, 33), of 5 by index
+    // (34), and 5 mirrored (35).
+    let scene = Scene::from_mesh(mesh.clone());
+    assert_eq!(
+        kinds(&scene),
+        BTreeSet::from(["duplicate-triangles", "back-to-back-triangles"])
+    );
+    let repeated = finding(&scene, "duplicate-triangles");
+    assert_eq!(
+        (repeated.count, repeated.worst.clone()),
+        (3, vec![32, 33, 34])
+    );
+    let mirrored = finding(&scene, "back-to-back-triangles");
+    assert_eq!((mirrored.count, mirrored.worst.clone()), (1, vec![35]));
+    let (repaired, report) = repair_mesh(&mesh, &RepairSettings::default());
+    assert_eq!(report.removed_duplicates, 3);
+    let mut kept: Vec<u32> = (0..32).collect();
+    kept.push(35);
+    assert_eq!(repaired.input_triangle, kept);
+    let keep = RepairSettings {
+        remove_duplicates: false,
+        ..RepairSettings::default()
+    };
+    assert_eq!(repair_mesh(&mesh, &keep).0.mesh.triangle_count(), 36);
+    let (after, map, _) = rtmesh::repair::repair(&scene, &RepairSettings::default());
+    assert_eq!(map.input_triangle[0], kept);
+    // A ray may hit a grid triangle or its copy (a tie): compare the corners of the
+    // input triangles hit, not the tie-breaks.
+    let accel_before = SceneAccel::build(&scene, &BuildSettings::default());
+    let accel_after = SceneAccel::build(&after, &BuildSettings::default());
+    let work = Workload::generate(RayKind::Primary, &scene, &accel_before, 64, 64, 1);
+    let before = trace_closest::<NoCounters>(&accel_before, &work.rays).0;
+    let after = trace_closest::<NoCounters>(&accel_after, &work.rays).0;
+    let surface = |t: u32| {
+        let mut c = mesh
+            .corners(t as usize)
+            .map(|p| p.to_array().map(f32::to_bits));
+        c.sort_unstable();
+        c
+    };
+    let mut hits = 0;
+    for (x, y) in before.iter().zip(&after) {
+        assert_eq!(x.is_hit(), y.is_hit());
+        if x.is_hit() {
+            hits += 1;
+            assert_eq!(
+                surface(x.triangle),
+                surface(map.input_triangle[0][y.triangle as usize])
+            );
+        }
+    }
+    assert!(hits > 1000, "{hits} hits");
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(32))]
 

@@ -5,12 +5,14 @@
 //! alpha-tested geometry (NVIDIA's advice) and writers can keep materials.
 
 mod adjacency;
+mod duplicates;
 mod info;
 mod validate;
 mod weld;
 
 pub use adjacency::{connected_components, EdgeAdjacency, NO_EDGE};
 pub(crate) use adjacency::{has_edges, part_cursors, triangle_part_len, HalfEdgeRuns, SharedSlice};
+pub use duplicates::{duplicates, Duplicates};
 pub use info::MeshInfo;
 pub use validate::{validate, Validation};
 pub use weld::{weld, weld_exact, WeldResult};
