@@ -355,7 +355,7 @@ fn lint_broken(
         .copied()
         .filter(|t| nan.binary_search(t).is_err())
         .collect();
-    for (kind, severity, ids, advice) in [
+    let broken = [
         (
             "inactive-triangles",
             Severity::Info,
@@ -374,7 +374,20 @@ fn lint_broken(
             validation.out_of_range_indices.clone(),
             "triangles naming vertices that do not exist are skipped; fix the indices",
         ),
-    ] {
+    ];
+    push_id_findings(g, settings, findings, broken, |_| vec![]);
+}
+
+/// One finding of geometry `g` per `(kind, severity, triangle ids, advice)` with ids,
+/// the first ids its worst, with `figures(ids)`.
+fn push_id_findings<const N: usize>(
+    g: usize,
+    settings: &LintSettings,
+    findings: &mut Vec<Finding>,
+    kinds: [(&'static str, Severity, Vec<u32>, &'static str); N],
+    figures: impl Fn(&[u32]) -> Vec<(&'static str, f64)>,
+) {
+    for (kind, severity, ids, advice) in kinds {
         if !ids.is_empty() {
             findings.push(Finding {
                 kind,
@@ -382,7 +395,7 @@ fn lint_broken(
                 geometry: g,
                 count: ids.len(),
                 worst: ids.iter().copied().take(settings.worst).collect(),
-                figures: vec![],
+                figures: figures(&ids),
                 advice,
             });
         }
@@ -392,7 +405,7 @@ fn lint_broken(
 /// Triangles on the corners of an earlier one ([`crate::mesh::duplicates`]).
 fn lint_duplicates(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut Vec<Finding>) {
     let found = crate::mesh::duplicates(mesh);
-    for (kind, severity, ids, advice) in [
+    let copies = [
         (
             "duplicate-triangles",
             Severity::Warning,
@@ -408,22 +421,14 @@ fn lint_duplicates(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: 
              two-sided for a rasteriser; a ray tracer without back-face culling needs \
              only one, and tests both",
         ),
-    ] {
-        if !ids.is_empty() {
-            findings.push(Finding {
-                kind,
-                severity,
-                geometry: g,
-                count: ids.len(),
-                worst: ids.iter().copied().take(settings.worst).collect(),
-                figures: vec![(
-                    "share_of_triangles",
-                    ids.len() as f64 / mesh.triangle_count() as f64,
-                )],
-                advice,
-            });
-        }
-    }
+    ];
+    let share = |ids: &[u32]| {
+        vec![(
+            "share_of_triangles",
+            ids.len() as f64 / mesh.triangle_count() as f64,
+        )]
+    };
+    push_id_findings(g, settings, findings, copies, share);
 }
 
 /// Alpha-tested layers along `width` × `height` primary rays from the default
