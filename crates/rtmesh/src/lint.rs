@@ -41,8 +41,8 @@ pub enum Severity {
 pub struct Finding {
     /// Short name: `elongated-triangles`, `fans`, `degenerate-triangles`,
     /// `inactive-triangles`, `out-of-range-indices`, `infinite-positions`,
-    /// `duplicate-triangles`, `back-to-back-triangles`, `mixed-alpha`, `stacked-alpha`, `scattered-geometry`, `overlapping-geometries`,
-    /// `deforming-mesh`.
+    /// `duplicate-triangles`, `back-to-back-triangles`, `mixed-alpha`, `stacked-alpha`,
+    /// `scattered-geometry`, `overlapping-geometries`, `deforming-mesh`.
     pub kind: &'static str,
     /// How serious.
     pub severity: Severity,

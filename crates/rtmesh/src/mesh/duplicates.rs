@@ -12,7 +12,7 @@
 //! group, the vertices rotated to start at the smallest are equal when the winding is.
 //! Cost: O(T log T) for the sort, plus the exact weld; 16 bytes per triangle.
 
-use super::{weld_exact, TriMesh};
+use super::{has_edges, weld_exact, TriMesh};
 use rayon::prelude::*;
 
 /// The copies in a mesh, by triangle id (ascending).
@@ -29,7 +29,6 @@ pub struct Duplicates {
 /// The duplicate triangles of `mesh`.
 pub fn duplicates(mesh: &TriMesh) -> Duplicates {
     let welded = weld_exact(mesh).mesh;
-    let vertex_count = welded.positions.len() as u32;
     // The corners rotated to start at the smallest: equal when the winding is.
     let rotated = |t: usize| {
         let tri = welded.triangles[t];
@@ -42,13 +41,8 @@ pub fn duplicates(mesh: &TriMesh) -> Duplicates {
         .par_iter()
         .enumerate()
         .filter_map(|(t, &tri)| {
-            let usable = tri.iter().all(|&v| v < vertex_count)
-                && tri[0] != tri[1]
-                && tri[1] != tri[2]
-                && tri[2] != tri[0]
-                && tri
-                    .iter()
-                    .all(|&v| welded.positions[v as usize].is_finite());
+            let usable =
+                has_edges(&tri, welded.positions.len()) && welded.finite_corners(t).is_some();
             usable.then(|| {
                 let mut sorted = tri;
                 sorted.sort_unstable();

@@ -278,14 +278,8 @@ fn cut_grid(w: usize, h: usize, diagonals: u128, holes: u128) -> TriMesh {
 fn tutte_rank_maximum(n: usize, edges: &[(usize, usize)], seed: u64) -> usize {
     const P: u64 = (1 << 61) - 1;
     let mul = |a: u64, b: u64| (a as u128 * b as u128 % P as u128) as u64;
-    let mut state = seed | 1;
-    let mut random = || {
-        // xorshift64*
-        state ^= state >> 12;
-        state ^= state << 25;
-        state ^= state >> 27;
-        state.wrapping_mul(0x2545_f491_4f6c_dd1d) % (P - 1) + 1
-    };
+    let mut rng = crate::random::SplitMix64::new(seed);
+    let mut random = || rng.next_u64() % (P - 1) + 1;
     let mut m = vec![vec![0u64; n]; n];
     for &(a, b) in edges {
         let x = random();
