@@ -1602,7 +1602,7 @@ fn print_lint(name: &str, report: &LintReport) {
         let figures: Vec<String> = f
             .figures
             .iter()
-            .map(|(k, v)| format!("{k} {v:.3}"))
+            .map(|(k, v)| format!("{k} {}", figure_text(*v)))
             .collect();
         println!(
             "  [{:?}] geometry {} {}: {} ({}); worst {:?}",
@@ -1614,6 +1614,18 @@ fn print_lint(name: &str, report: &LintReport) {
             f.worst
         );
         println!("      {}", f.advice);
+    }
+}
+
+/// A lint figure as text: whole numbers without decimals, small ones in scientific
+/// notation, the rest to three decimals.
+fn figure_text(v: f64) -> String {
+    if v.fract() == 0.0 && v.abs() < 1e15 {
+        format!("{v:.0}")
+    } else if v.abs() >= 0.01 {
+        format!("{v:.3}")
+    } else {
+        format!("{v:.2e}")
     }
 }
 

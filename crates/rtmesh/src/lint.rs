@@ -18,6 +18,12 @@
 //! (welded by exact position): a geometry whose pieces' boxes cover less than half its
 //! own box area is *scattered* (split it into instances); small geometries whose boxes
 //! overlap heavily should be merged.
+//!
+//! Probe rays (128² from the default camera, every crossing found by an any-hit
+//! traversal that never stops) count stacked alpha-tested layers and find *stacks*:
+//! three or more parallel triangles that a ray crosses at one depth (copies, z-fighting
+//! layers, folds), each of which every ray through them tests. Cost: one BVH build
+//! and O(crossings) per ray.
 
 use crate::geom::{triangle_area, Aabb};
 use crate::mesh::{connected_components, validate, weld_exact, EdgeAdjacency, Scene, TriMesh};
@@ -42,7 +48,7 @@ pub struct Finding {
     /// Short name: `elongated-triangles`, `fans`, `degenerate-triangles`,
     /// `inactive-triangles`, `out-of-range-indices`, `infinite-positions`,
     /// `duplicate-triangles`, `back-to-back-triangles`, `mixed-alpha`, `stacked-alpha`,
-    /// `scattered-geometry`, `overlapping-geometries`, `deforming-mesh`.
+    /// `stacked-triangles`, `scattered-geometry`, `overlapping-geometries`, `deforming-mesh`.
     pub kind: &'static str,
     /// How serious.
     pub severity: Severity,
@@ -189,6 +195,9 @@ fn worst_by(mut ids: Vec<u32>, n: usize, score: impl Fn(u32) -> f32) -> Vec<u32>
     ids
 }
 
+/// Probe rays per side of the image that lint traces for stacked layers.
+const PROBE_SIDE: usize = 128;
+
 /// Lint every geometry of `scene`.
 pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
     let start = std::time::Instant::now();
@@ -217,7 +226,15 @@ pub fn lint(scene: &Scene, settings: &LintSettings) -> LintReport {
     }
     lint_overlaps(scene, settings, &mut findings);
     estimate_grouping(scene, &pieces, &mut findings);
-    lint_alpha_layers(scene, &mut findings);
+    let tolerance = STACK_TOLERANCE * scene.bounds().diagonal_length();
+    let (layers, stacks): (Vec<u32>, Vec<Vec<(u32, u32)>>) =
+        probe_crossings(scene, PROBE_SIDE, PROBE_SIDE, |crossed| {
+            (alpha_layers_of(crossed), deepest_stack(crossed, tolerance))
+        })
+        .into_iter()
+        .unzip();
+    lint_alpha_layers(&layers, &mut findings);
+    lint_stacks(&stacks, layers.len(), tolerance, settings, &mut findings);
     LintReport {
         triangles: scene.meshes.iter().map(TriMesh::triangle_count).sum(),
         geometries: scene.meshes.len(),
@@ -431,22 +448,48 @@ fn lint_duplicates(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: 
     push_id_findings(g, settings, findings, copies, share);
 }
 
-/// Alpha-tested layers along `width` × `height` primary rays from the default
-/// camera: per ray, how many alpha-tested triangles it crosses before its first opaque
-/// hit, each an any-hit shader call (alpha test) a tracer would run. Every triangle
-/// along the ray is found by an any-hit traversal that never stops; instances are
-/// visited one by one (a lint measure, not a fast path).
-pub fn alpha_layers(scene: &Scene, width: usize, height: usize) -> Vec<u32> {
+/// A triangle that a probe ray crosses.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    /// Distance along the ray.
+    t: f32,
+    /// The triangle's geometry.
+    geometry: u32,
+    /// The triangle, within its geometry.
+    triangle: u32,
+    /// Whether the triangle is alpha-tested.
+    alpha: bool,
+    /// Unit normal, in world space.
+    normal: glam::Vec3,
+    /// Whether the ray crosses it away from its edges (every barycentric coordinate at
+    /// least [`EDGE_MARGIN`]): a ray through an edge or corner crosses its neighbours at
+    /// the same depth, which is no stack.
+    interior: bool,
+}
+
+/// Barycentric margin of an interior crossing.
+const EDGE_MARGIN: f32 = 1e-3;
+
+/// Every triangle that each of `width` × `height` primary rays from the default camera
+/// crosses, reduced by `per_ray`. The crossings come from an any-hit traversal that
+/// never stops; instances are visited one by one (a lint measure, not a fast path).
+fn probe_crossings<R: Send>(
+    scene: &Scene,
+    width: usize,
+    height: usize,
+    per_ray: impl Fn(&mut Vec<Crossing>) -> R + Sync,
+) -> Vec<R> {
     use crate::bvh::BuildSettings;
     use crate::trace::traverse::{any_hit, PortableNodeTest};
     use crate::trace::{Camera, NoCounters, RayQuery, SceneAccel, Workload};
-    let accel = SceneAccel::build(scene, &BuildSettings::default());
+    // Any tree finds the same crossings: the fast build.
+    let accel = SceneAccel::build(scene, &BuildSettings::fast());
     let camera = Camera::default_for(&scene.bounds(), width, height);
     let work = Workload::primary(&camera, width, height);
     work.rays
         .par_iter()
         .map(|ray| {
-            let mut crossed: Vec<(f32, bool)> = Vec::new();
+            let mut crossed = Vec::new();
             for instance in &scene.instances {
                 let to_object = instance.transform.inverse();
                 let local = crate::Ray {
@@ -466,9 +509,18 @@ pub fn alpha_layers(scene: &Scene, width: usize, height: usize) -> Vec<u32> {
                         for block in blocks {
                             for lane in 0..block.count() as usize {
                                 let triangle = block.triangle(lane);
-                                if let Some((t, _, _)) = triangle.intersect(&query, t_max) {
-                                    crossed
-                                        .push((t, alpha.get(triangle.id as usize) == Some(&true)));
+                                if let Some((t, u, v)) = triangle.intersect(&query, t_max) {
+                                    let normal = instance
+                                        .transform
+                                        .transform_vector3(triangle.e1.cross(triangle.e2));
+                                    crossed.push(Crossing {
+                                        t,
+                                        geometry: instance.mesh as u32,
+                                        triangle: triangle.id,
+                                        alpha: alpha.get(triangle.id as usize) == Some(&true),
+                                        normal: normal.normalize_or_zero(),
+                                        interior: u.min(v).min(1.0 - u - v) >= EDGE_MARGIN,
+                                    });
                                 }
                             }
                         }
@@ -476,26 +528,82 @@ pub fn alpha_layers(scene: &Scene, width: usize, height: usize) -> Vec<u32> {
                     },
                 );
             }
-            let opaque = crossed
-                .iter()
-                .filter(|c| !c.1)
-                .fold(f32::INFINITY, |t, c| t.min(c.0));
-            crossed.iter().filter(|c| c.1 && c.0 < opaque).count() as u32
+            per_ray(&mut crossed)
         })
         .collect()
 }
 
-/// Stacked alpha-tested layers, measured by [`alpha_layers`] on 128 × 128 rays.
-fn lint_alpha_layers(scene: &Scene, findings: &mut Vec<Finding>) {
-    if !scene
-        .meshes
+/// Alpha-tested layers along `width` × `height` primary rays from the default
+/// camera: per ray, how many alpha-tested triangles it crosses before its first opaque
+/// hit, each an any-hit shader call (alpha test) a tracer would run.
+pub fn alpha_layers(scene: &Scene, width: usize, height: usize) -> Vec<u32> {
+    probe_crossings(scene, width, height, |crossed| alpha_layers_of(crossed))
+}
+
+/// How many alpha-tested triangles come before the first opaque one in `crossed`.
+fn alpha_layers_of(crossed: &[Crossing]) -> u32 {
+    let opaque = crossed
         .iter()
-        .any(|m| m.alpha_tested.iter().any(|&a| a))
-    {
-        return;
+        .filter(|c| !c.alpha)
+        .fold(f32::INFINITY, |t, c| t.min(c.t));
+    crossed.iter().filter(|c| c.alpha && c.t < opaque).count() as u32
+}
+
+/// Triangles whose planes make an angle of at most this (its cosine, 26°) with a
+/// stack's first triangle join it: layers are parallel (facing the same way, or
+/// opposite in a fold), where the bumps of a surface that a grazing ray crosses
+/// several times are not.
+pub const STACK_ANGLE: f32 = 0.9;
+
+/// The fewest layers that make a stack: two surfaces back to back (a thin shell, a
+/// decal) are common and cheap.
+pub const STACK_LAYERS: usize = 3;
+
+/// Stack depth tolerance as a share of the scene's box diagonal.
+pub const STACK_TOLERANCE: f32 = 1e-4;
+
+/// The deepest stack among one ray's crossings, as `(geometry, triangle)` nearest
+/// first: the most triangles crossed in their interiors, each facing within
+/// [`STACK_ANGLE`] of the first, all within `tolerance` of the first along the ray;
+/// empty when it has fewer than [`STACK_LAYERS`].
+fn deepest_stack(crossed: &mut Vec<Crossing>, tolerance: f32) -> Vec<(u32, u32)> {
+    crossed.retain(|c| c.interior);
+    crossed.sort_by(|a, b| a.t.total_cmp(&b.t));
+    // The crossings within `tolerance` of crossing i end before `end`; a window no
+    // longer than the deepest stack so far cannot hold a deeper one, so a stack of L
+    // layers costs O(L), not O(L²).
+    let (mut deepest, mut deepest_at) = (STACK_LAYERS - 1, None);
+    let mut end = 0;
+    for (i, first) in crossed.iter().enumerate() {
+        while end < crossed.len() && crossed[end].t - first.t <= tolerance {
+            end += 1;
+        }
+        if end - i <= deepest {
+            continue;
+        }
+        let layers = crossed[i..end]
+            .iter()
+            .filter(|c| c.normal.dot(first.normal).abs() >= STACK_ANGLE)
+            .count();
+        if layers > deepest {
+            (deepest, deepest_at) = (layers, Some(i));
+        }
     }
-    let layers = alpha_layers(scene, 128, 128);
-    let meeting: Vec<u32> = layers.into_iter().filter(|&l| l > 0).collect();
+    let Some(i) = deepest_at else {
+        return Vec::new();
+    };
+    let first = crossed[i];
+    crossed[i..]
+        .iter()
+        .take_while(|c| c.t - first.t <= tolerance)
+        .filter(|c| c.normal.dot(first.normal).abs() >= STACK_ANGLE)
+        .map(|c| (c.geometry, c.triangle))
+        .collect()
+}
+
+/// Stacked alpha-tested layers, from [`alpha_layers_of`] per probe ray.
+fn lint_alpha_layers(layers: &[u32], findings: &mut Vec<Finding>) {
+    let meeting: Vec<u32> = layers.iter().copied().filter(|&l| l > 0).collect();
     if meeting.is_empty() {
         return;
     }
@@ -522,6 +630,60 @@ fn lint_alpha_layers(scene: &Scene, findings: &mut Vec<Finding>) {
         advice: "rays cross several alpha-tested layers before an opaque hit, running an \
                  any-hit shader for each: merge the layers, make the inner ones opaque, or \
                  cut the alpha-tested area down to the visible shape",
+    });
+}
+
+/// The share of probe rays through stacks from which they are a warning (below, a
+/// few folded or overlapping triangles: worth knowing).
+const STACKED_RAYS_WARNING: f64 = 0.01;
+
+/// Stacked triangles, from [`deepest_stack`] per probe ray: the geometry of the
+/// deepest stack, with that stack's triangles in it as the worst; a warning when
+/// [`STACKED_RAYS_WARNING`] of the rays or more cross a stack.
+fn lint_stacks(
+    stacks: &[Vec<(u32, u32)>],
+    rays: usize,
+    tolerance: f32,
+    settings: &LintSettings,
+    findings: &mut Vec<Finding>,
+) {
+    let Some(deepest) = stacks.iter().max_by_key(|s| s.len()) else {
+        return;
+    };
+    if deepest.is_empty() {
+        return;
+    }
+    let stacked: Vec<&Vec<(u32, u32)>> = stacks.iter().filter(|s| !s.is_empty()).collect();
+    let mut triangles: Vec<(u32, u32)> = stacked.iter().flat_map(|s| s.iter().copied()).collect();
+    triangles.sort_unstable();
+    triangles.dedup();
+    let geometry = deepest[0].0;
+    let mean = stacked.iter().map(|s| s.len() as f64).sum::<f64>() / stacked.len() as f64;
+    let share = stacked.len() as f64 / rays as f64;
+    findings.push(Finding {
+        kind: "stacked-triangles",
+        severity: if share >= STACKED_RAYS_WARNING {
+            Severity::Warning
+        } else {
+            Severity::Info
+        },
+        geometry: geometry as usize,
+        count: triangles.len(),
+        worst: deepest
+            .iter()
+            .filter(|&&(g, _)| g == geometry)
+            .map(|&(_, t)| t)
+            .take(settings.worst)
+            .collect(),
+        figures: vec![
+            ("most_layers_on_one_ray", deepest.len() as f64),
+            ("mean_layers_per_stacked_ray", mean),
+            ("share_of_rays_through_stacks", share),
+            ("depth_tolerance", tolerance as f64),
+        ],
+        advice: "rays cross several parallel triangles at (almost) one depth and test \
+                 every one, though only the nearest can be seen: remove the hidden layers \
+                 or merge them into one surface (rtmesh repair removes exact copies)",
     });
 }
 
@@ -742,4 +904,58 @@ pub fn lint_deforming(rest: &Scene, poses: &[Scene]) -> Result<Finding, String> 
             "refitting keeps the SAH cost within 25% of a rebuild: refit for these poses"
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{deepest_stack, Crossing};
+    use glam::Vec3;
+
+    /// A crossing of triangle `triangle` at `t`, facing `normal`, in its interior or
+    /// not.
+    fn crossing(t: f32, triangle: u32, normal: Vec3, interior: bool) -> Crossing {
+        Crossing {
+            t,
+            geometry: 0,
+            triangle,
+            alpha: false,
+            normal,
+            interior,
+        }
+    }
+
+    #[test]
+    fn the_deepest_stack_is_of_parallel_interior_crossings_within_the_tolerance() {
+        let (up, down, side) = (Vec3::Z, -Vec3::Z, Vec3::X);
+        let stack = |crossed: &[Crossing]| deepest_stack(&mut crossed.to_vec(), 0.1);
+        // Three parallel layers (one facing the other way, as in a fold), given out of
+        // order: a stack, nearest first.
+        let three = [
+            crossing(1.05, 7, up, true),
+            crossing(1.0, 3, down, true),
+            crossing(1.08, 5, up, true),
+        ];
+        assert_eq!(stack(&three), vec![(0, 3), (0, 7), (0, 5)]);
+        // Through an edge (a neighbour at the same depth), not a layer.
+        let mut edge = three;
+        edge[0].interior = false;
+        assert_eq!(stack(&edge), vec![]);
+        // Across the others: a bump, not a layer.
+        let mut bump = three;
+        bump[2].normal = side;
+        assert_eq!(stack(&bump), vec![]);
+        // Too far behind.
+        let mut behind = three;
+        behind[2].t = 1.2;
+        assert_eq!(stack(&behind), vec![]);
+        // Two stacks: the deeper one, here the second; the first layer of a window
+        // sets the direction.
+        let mut two: Vec<Crossing> = (0..3)
+            .map(|k| crossing(k as f32 * 0.01, k, up, true))
+            .collect();
+        two.push(crossing(0.02, 90, side, true));
+        two.extend((10..14).map(|k| crossing(5.0 + k as f32 * 0.01, k, down, true)));
+        two.push(crossing(5.25, 91, up, true));
+        assert_eq!(stack(&two), (10..14).map(|k| (0, k)).collect::<Vec<_>>());
+    }
 }

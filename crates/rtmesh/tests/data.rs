@@ -186,6 +186,43 @@ fn pairing_on_scanned_meshes() {
 }
 
 #[test]
+fn lint_finds_the_conference_rooms_copies_and_layers() {
+    use rtmesh::lint::{lint, LintSettings, Severity};
+    let Some(dir) = mesh_data_dir() else {
+        return;
+    };
+    let findings = |file: &str| {
+        let scene = rtmesh::io::read(&dir.join(file)).unwrap();
+        lint(&scene, &LintSettings::default()).findings
+    };
+    let conference = findings("conference.obj");
+    let of = |kind: &str| {
+        conference
+            .iter()
+            .find(|f| f.kind == kind)
+            .unwrap_or_else(|| panic!("no {kind}"))
+    };
+    assert_eq!(of("duplicate-triangles").count, 56);
+    assert_eq!(of("back-to-back-triangles").count, 991);
+    // Three overlapping triangles, two in one plane and one 0.022 below it (in a room
+    // 3,270 across): met by few rays, so worth knowing, not a warning.
+    let stacked = of("stacked-triangles");
+    assert_eq!(stacked.severity, Severity::Info);
+    let mut deepest = stacked.worst.clone();
+    deepest.sort_unstable();
+    assert_eq!(deepest, vec![3885, 3892, 3899]);
+    // The full dragon has neither copies nor layers.
+    let dragon = findings("dragon_vrip.ply");
+    assert!(
+        !dragon.iter().any(|f| matches!(
+            f.kind,
+            "duplicate-triangles" | "back-to-back-triangles" | "stacked-triangles"
+        )),
+        "{dragon:?}"
+    );
+}
+
+#[test]
 fn packets_and_intersectors_on_real_meshes() {
     use rtmesh::bvh::BuildSettings;
     use rtmesh::trace::intersect::{

@@ -379,12 +379,20 @@ fn duplicates_are_found_and_removed() {
         mesh.alpha_tested.push(false);
     }
     // 32 grid triangles, then copies of 5 and 9 by position (32, 33), of 5 by index
-    // (34), and 5 mirrored (35).
+    // (34), and 5 mirrored (35): four layers of triangle 5, a stack.
     let scene = Scene::from_mesh(mesh.clone());
     assert_eq!(
         kinds(&scene),
-        BTreeSet::from(["duplicate-triangles", "back-to-back-triangles"])
+        BTreeSet::from([
+            "duplicate-triangles",
+            "back-to-back-triangles",
+            "stacked-triangles"
+        ])
     );
+    let stacked = finding(&scene, "stacked-triangles");
+    let mut layers = stacked.worst.clone();
+    layers.sort_unstable();
+    assert_eq!(layers, vec![5, 32, 34, 35]);
     let repeated = finding(&scene, "duplicate-triangles");
     assert_eq!(
         (repeated.count, repeated.worst.clone()),
@@ -580,6 +588,55 @@ fn stacked_alpha_layers_are_counted() {
     let mut single = grid(4, Vec3::ZERO);
     single.alpha_tested[0] = true;
     assert!(!kinds(&Scene::from_mesh(single)).contains("stacked-alpha"));
+}
+
+fn figure(finding: &rtmesh::lint::Finding, name: &str) -> f64 {
+    finding
+        .figures
+        .iter()
+        .find(|f| f.0 == name)
+        .unwrap_or_else(|| panic!("no figure {name}"))
+        .1
+}
+
+#[test]
+fn stacked_layers_are_found_and_two_are_not() {
+    // Copies of a grid 10⁻⁵ apart (the tolerance is 10⁻⁴ of the scene's diagonal):
+    // every camera ray that meets the grid crosses them all at one depth.
+    let layered = |layers: usize| {
+        let mut mesh = grid(8, Vec3::ZERO);
+        for k in 1..layers {
+            let copy = grid(8, Vec3::new(0.0, 0.0, k as f32 * 1e-5));
+            mesh.append(&copy, &Affine3A::IDENTITY, 0);
+        }
+        Scene::from_mesh(mesh)
+    };
+    let found = finding(&layered(4), "stacked-triangles");
+    assert_eq!(found.severity, rtmesh::lint::Severity::Warning);
+    assert_eq!(figure(&found, "most_layers_on_one_ray"), 4.0);
+    assert_eq!(figure(&found, "mean_layers_per_stacked_ray"), 4.0);
+    assert_eq!(found.count, 4 * 128, "every triangle of every layer");
+    // The deepest stack: one triangle of each layer, the same place in each.
+    assert_eq!(found.worst.len(), 4);
+    let place: BTreeSet<u32> = found.worst.iter().map(|t| t % 128).collect();
+    let layer: BTreeSet<u32> = found.worst.iter().map(|t| t / 128).collect();
+    assert_eq!((place.len(), layer.len()), (1, 4), "{:?}", found.worst);
+    // Two layers back to back are a thin shell or a decal, not a stack.
+    assert!(!kinds(&layered(2)).contains("stacked-triangles"));
+    // A sphere: rays near its outline cross it twice close together, never in three
+    // layers; rays near its poles meet the fans' slivers at their shared corner.
+    let sphere = Scene::from_mesh(rtmesh::scenes::uv_sphere(64, 256));
+    assert!(!kinds(&sphere).contains("stacked-triangles"));
+    // One geometry placed three times at one place: a stack across instances.
+    let mut placed = Scene::from_mesh(grid(8, Vec3::ZERO));
+    let again = rtmesh::Instance {
+        mesh: 0,
+        transform: Affine3A::IDENTITY,
+    };
+    placed.instances.extend([again.clone(), again]);
+    let found = finding(&placed, "stacked-triangles");
+    assert_eq!(figure(&found, "most_layers_on_one_ray"), 3.0);
+    assert_eq!(found.count, 128, "the one geometry's triangles");
 }
 
 #[test]
