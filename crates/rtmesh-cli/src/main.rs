@@ -301,6 +301,15 @@ fn load(mesh: &str) -> Result<Scene> {
     Ok(scene?)
 }
 
+/// A progress bar on standard error over `steps` steps of long work, with a message
+/// saying which; drawn only on a terminal, so piped and `--json` output stay clean.
+fn steps_bar(steps: usize) -> ProgressBar {
+    ProgressBar::new(steps as u64).with_style(
+        ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} ({elapsed}, {eta} left)")
+            .expect("valid template"),
+    )
+}
+
 #[derive(Subcommand)]
 enum BenchCommand {
     /// Trace the same rays through rtmesh and (with --vs) another tracer, side by side.
@@ -1178,27 +1187,46 @@ fn bench_trace(
         runs,
         builds,
     };
+    // One step per mesh and tracer compared (ticking on while one runs).
+    let bar = steps_bar(meshes.len() * vs.len().max(1));
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
     for mesh in meshes {
-        let scene = load(mesh)?;
+        let scene = bar.suspend(|| load(mesh))?;
         let name = file_name(mesh);
         if vs.is_empty() {
-            bench_own(name, &scene, kinds, thread_counts, size, runs, builds, json)?;
+            bar.set_message(format!("{name}: rtmesh"));
+            bench_own(
+                name,
+                &scene,
+                kinds,
+                thread_counts,
+                size,
+                runs,
+                builds,
+                json,
+                &bar,
+            )?;
+            bar.inc(1);
             continue;
         }
         for reference in vs {
+            bar.set_message(format!("{name}: rtmesh and {reference}"));
             for row in compare_with(reference, name, &scene, &compare_settings)? {
-                if json {
-                    println!("{}", row.to_json());
+                let line = if json {
+                    row.to_json().to_string()
                 } else {
-                    println!(
+                    format!(
                         "{:<24} {:>8} {:>3} {:>8} {:>7} {:>11.2} {:>10.2} {:>6.2}x {:>9.3} {:>9.3} {:>7.3}%",
                         row.mesh, row.rays, row.threads, row.workload, row.other, row.rtmesh_mrays_per_s, row.other_mrays_per_s, row.ratio,
                         row.rtmesh_build_seconds, row.other_build_seconds, 100.0 * row.same_hits
-                    );
-                }
+                    )
+                };
+                bar.suspend(|| println!("{line}"));
             }
+            bar.inc(1);
         }
     }
+    bar.finish_and_clear();
     Ok(())
 }
 
@@ -1213,6 +1241,7 @@ fn bench_own(
     runs: usize,
     builds: usize,
     json: bool,
+    bar: &ProgressBar,
 ) -> Result<()> {
     for &threads in thread_counts {
         workload::with_threads(threads, || -> Result<()> {
@@ -1225,15 +1254,15 @@ fn bench_own(
                 let work = Workload::generate(kind, scene, &accel, width, height, 1);
                 let run = workload::measure(&accel, &work, runs);
                 let threads = rayon::current_num_threads();
-                if json {
+                let line = if json {
                     let mut value = serde_json::to_value(&run)?;
                     value["mesh"] = serde_json::json!(name);
                     value["workload"] = serde_json::json!(kind.name());
                     value["threads"] = serde_json::json!(threads);
                     value["build_seconds"] = serde_json::json!(build_seconds);
-                    println!("{value}");
+                    value.to_string()
                 } else {
-                    println!(
+                    format!(
                         "{name:<24} {:>8} {threads:>3} {:>8} {:>11.2} {:>8.2} {:>8.2} {:>9.3}",
                         run.rays,
                         kind.name(),
@@ -1241,8 +1270,9 @@ fn bench_own(
                         run.box_tests_per_ray,
                         run.tri_tests_per_ray,
                         build_seconds
-                    );
-                }
+                    )
+                };
+                bar.suspend(|| println!("{line}"));
             }
             Ok(())
         })?;
@@ -1299,6 +1329,11 @@ fn bench_pairing(
             *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
         }
         let name = file_name(mesh_name).to_owned();
+        let rounds = runs.max(1);
+        // Pairing each method, then tracing each workload through each row (timed runs,
+        // then one counted and one checked pass).
+        let rows_count = all_methods.len() + 1;
+        let bar = steps_bar(all_methods.len() * rounds + kinds.len() * rows_count * (rounds + 2));
         let triangles = std::sync::Arc::new(SceneAccel::build(&scene, &BuildSettings::default()));
         let mut rows = vec![{
             let (a, b) = (triangles.clone(), triangles.clone());
@@ -1318,7 +1353,8 @@ fn bench_pairing(
             };
             let mut seconds = Vec::new();
             let mut pairings = Vec::new();
-            for _ in 0..runs.max(1) {
+            bar.set_message(format!("{name}: pairing {method}"));
+            for _ in 0..rounds {
                 let start = std::time::Instant::now();
                 pairings = scene
                     .meshes
@@ -1326,6 +1362,7 @@ fn bench_pairing(
                     .map(|m| rtmesh::pair::pair(m, &settings).0)
                     .collect();
                 seconds.push(start.elapsed().as_secs_f64());
+                bar.inc(1);
             }
             let paired: usize = pairings.iter().map(Pairing::paired_triangles).sum();
             let accel = std::sync::Arc::new(SceneAccel::build_paired(
@@ -1343,14 +1380,16 @@ fn bench_pairing(
             });
         }
         for &kind in kinds {
+            bar.set_message(format!("{name}: tracing {} rays", kind.name()));
             let work = Workload::generate(kind, &scene, &*triangles, width, height, 1);
             let reference = (rows[0].accel)(&work.rays);
             let mut seconds = vec![Vec::new(); rows.len()];
-            for _ in 0..runs.max(1) {
+            for _ in 0..rounds {
                 for (row, times) in rows.iter().zip(&mut seconds) {
                     let start = std::time::Instant::now();
                     std::hint::black_box((row.accel)(&work.rays));
                     times.push(start.elapsed().as_secs_f64());
+                    bar.inc(1);
                 }
             }
             let results: Vec<(rtmesh::trace::TraceRun, f64, f64)> = rows
@@ -1365,11 +1404,9 @@ fn bench_pairing(
                         .count() as f64
                         / work.rays.len().max(1) as f64;
                     let median = workload::median(times);
-                    (
-                        (row.counted)(&work),
-                        work.rays.len() as f64 / median / 1e6,
-                        same,
-                    )
+                    let counted = (row.counted)(&work);
+                    bar.inc(2);
+                    (counted, work.rays.len() as f64 / median / 1e6, same)
                 })
                 .collect();
             let base = &results[1]; // window:2
@@ -1379,8 +1416,8 @@ fn bench_pairing(
                 let d_box = delta(run.box_tests_per_ray, base.0.box_tests_per_ray);
                 let d_tests = delta(tests(run), tests(&base.0));
                 let d_mrays = delta(*mrays, base.1);
-                if json {
-                    println!(
+                let line = if json {
+                    format!(
                         "{}",
                         serde_json::json!({
                             "mesh": name, "method": row.method, "workload": kind.name(),
@@ -1393,17 +1430,19 @@ fn bench_pairing(
                             "delta_tests_percent": d_tests, "delta_mrays_percent": d_mrays,
                             "same_hits": same,
                         })
-                    );
+                    )
                 } else {
-                    println!(
+                    format!(
                         "{:<20} {:<14} {:<8} {:>9.4} {:>7.2}% {:>8} {:>8.2} {:>9.3} {:>9.3} {:>8.2} {:>6.1}% {:>6.1}% {:>6.1}% {:>6.2}%",
                         name, row.method, kind.name(), row.pair_seconds, 100.0 * row.pair_ratio,
                         run.rays, run.box_tests_per_ray, run.tri_tests_per_ray, run.pair_tests_per_ray, mrays,
                         d_box, d_tests, d_mrays, 100.0 * same
-                    );
-                }
+                    )
+                };
+                bar.suspend(|| println!("{line}"));
             }
         }
+        bar.finish_and_clear();
     }
     Ok(())
 }
