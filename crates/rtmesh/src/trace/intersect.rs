@@ -26,7 +26,7 @@
 //!
 //! All five are written once over [`Lanes`]: `f32` is the scalar reference (one
 //! triangle per test, with the early-outs as real branches), `wide::f32x4` and the AVX
-//! [`super::lanes::Avx8`] test 4 and 8 triangles at once (an early-out then needs every
+//! `Avx8` (module `lanes`) test 4 and 8 triangles at once (an early-out then needs every
 //! lane to fail). No fused multiply-add is used, so all widths agree bit for bit.
 //!
 //! Conventions: `(u, v)` weight the second and third corner, a hit needs

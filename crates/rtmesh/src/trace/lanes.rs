@@ -2,7 +2,7 @@
 //! implemented by plain `f32` (the scalar reference, one triangle at a time, with real
 //! early-out branches), by `wide::f32x4` (4 triangles per test on any CPU: SSE, NEON or
 //! scalar emulation), by `wide::f32x8` (8 lanes as two halves unless the whole program
-//! is built for AVX) and, on x86-64, by [`Avx8`] (8 triangles per test in 256-bit AVX registers, only run after
+//! is built for AVX) and, on x86-64, by `Avx8` (8 triangles per test in 256-bit AVX registers, only run after
 //! `is_x86_feature_detected!("avx")`). The intersectors are written once over this
 //! trait, so the three forms execute the same IEEE operations in the same order (no
 //! fused multiply-add) and give bit-identical results.
@@ -313,7 +313,7 @@ mod avx {
     }
 }
 
-/// Whether this CPU runs [`Avx8`] (detected once, then a cached flag).
+/// Whether this CPU runs `Avx8` (detected once, then a cached flag).
 #[inline(always)]
 pub fn has_avx() -> bool {
     #[cfg(target_arch = "x86_64")]
