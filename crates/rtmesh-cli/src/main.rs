@@ -302,7 +302,7 @@ fn load(mesh: &str) -> Result<Scene> {
 }
 
 /// A progress bar on standard error over `steps` steps of long work, with a message
-/// saying which; drawn only on a terminal, so piped and `--json` output stay clean.
+/// saying which; drawn only when standard error is a terminal, never into the output.
 fn steps_bar(steps: usize) -> ProgressBar {
     ProgressBar::new(steps as u64).with_style(
         ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} ({elapsed}, {eta} left)")
@@ -1417,9 +1417,7 @@ fn bench_pairing(
                 let d_tests = delta(tests(run), tests(&base.0));
                 let d_mrays = delta(*mrays, base.1);
                 let line = if json {
-                    format!(
-                        "{}",
-                        serde_json::json!({
+                    serde_json::json!({
                             "mesh": name, "method": row.method, "workload": kind.name(),
                             "rays": run.rays, "threads": rayon::current_num_threads(),
                             "pair_seconds": row.pair_seconds, "pair_ratio": row.pair_ratio,
@@ -1429,8 +1427,8 @@ fn bench_pairing(
                             "mrays_per_s": mrays, "delta_box_percent": d_box,
                             "delta_tests_percent": d_tests, "delta_mrays_percent": d_mrays,
                             "same_hits": same,
-                        })
-                    )
+                    })
+                    .to_string()
                 } else {
                     format!(
                         "{:<20} {:<14} {:<8} {:>9.4} {:>7.2}% {:>8} {:>8.2} {:>9.3} {:>9.3} {:>8.2} {:>6.1}% {:>6.1}% {:>6.1}% {:>6.2}%",

@@ -486,12 +486,16 @@ fn probe_crossings<R: Send>(
     let accel = SceneAccel::build(scene, &BuildSettings::fast());
     let camera = Camera::default_for(&scene.bounds(), width, height);
     let work = Workload::primary(&camera, width, height);
+    let to_object: Vec<glam::Affine3A> = scene
+        .instances
+        .iter()
+        .map(|i| i.transform.inverse())
+        .collect();
     work.rays
         .par_iter()
         .map(|ray| {
             let mut crossed = Vec::new();
-            for instance in &scene.instances {
-                let to_object = instance.transform.inverse();
+            for (instance, to_object) in scene.instances.iter().zip(&to_object) {
                 let local = crate::Ray {
                     origin: to_object.transform_point3(ray.origin),
                     direction: to_object.transform_vector3(ray.direction),
@@ -510,9 +514,11 @@ fn probe_crossings<R: Send>(
                             for lane in 0..block.count() as usize {
                                 let triangle = block.triangle(lane);
                                 if let Some((t, u, v)) = triangle.intersect(&query, t_max) {
-                                    let normal = instance
-                                        .transform
-                                        .transform_vector3(triangle.e1.cross(triangle.e2));
+                                    // The world's edges' cross product: right under
+                                    // any affine placement, shears and uneven scales
+                                    // included.
+                                    let world = |e| instance.transform.transform_vector3(e);
+                                    let normal = world(triangle.e1).cross(world(triangle.e2));
                                     crossed.push(Crossing {
                                         t,
                                         geometry: instance.mesh as u32,

@@ -637,6 +637,23 @@ fn stacked_layers_are_found_and_two_are_not() {
     let found = finding(&placed, "stacked-triangles");
     assert_eq!(figure(&found, "most_layers_on_one_ray"), 3.0);
     assert_eq!(found.count, 128, "the one geometry's triangles");
+    // Placed twice more sheared along x by z (the plane z = 0 stays put, but its normal
+    // carried like an edge would tilt by 45°): still three parallel layers.
+    let mut sheared = Scene::from_mesh(grid(8, Vec3::ZERO));
+    for k in 1..3 {
+        let shear = Affine3A::from_cols(
+            Vec3::X.into(),
+            Vec3::Y.into(),
+            Vec3::new(1.0, 0.0, 1.0).into(),
+            Vec3::new(0.0, 0.0, k as f32 * 1e-5).into(),
+        );
+        sheared.instances.push(rtmesh::Instance {
+            mesh: 0,
+            transform: shear,
+        });
+    }
+    let found = finding(&sheared, "stacked-triangles");
+    assert_eq!(figure(&found, "most_layers_on_one_ray"), 3.0);
 }
 
 #[test]
