@@ -568,6 +568,15 @@ pub const STACK_LAYERS: usize = 3;
 /// Stack depth tolerance as a share of the scene's box diagonal.
 pub const STACK_TOLERANCE: f32 = 1e-4;
 
+/// The crossings of `window` (nearest first) that are parallel to its first: a stack's
+/// layers.
+fn layers(window: &[Crossing]) -> impl Iterator<Item = &Crossing> {
+    let first = window[0].normal;
+    window
+        .iter()
+        .filter(move |c| c.normal.dot(first).abs() >= STACK_ANGLE)
+}
+
 /// The deepest stack among one ray's crossings, as `(geometry, triangle)` nearest
 /// first: the most triangles crossed in their interiors, each facing within
 /// [`STACK_ANGLE`] of the first, all within `tolerance` of the first along the ray;
@@ -578,33 +587,25 @@ fn deepest_stack(crossed: &mut Vec<Crossing>, tolerance: f32) -> Vec<(u32, u32)>
     // The crossings within `tolerance` of crossing i end before `end`; a window no
     // longer than the deepest stack so far cannot hold a deeper one, so a stack of L
     // layers costs O(L), not O(L²).
-    let (mut deepest, mut deepest_at) = (STACK_LAYERS - 1, None);
+    let (mut deepest, mut deepest_window) = (STACK_LAYERS - 1, None);
     let mut end = 0;
-    for (i, first) in crossed.iter().enumerate() {
-        while end < crossed.len() && crossed[end].t - first.t <= tolerance {
+    for i in 0..crossed.len() {
+        while end < crossed.len() && crossed[end].t - crossed[i].t <= tolerance {
             end += 1;
         }
         if end - i <= deepest {
             continue;
         }
-        let layers = crossed[i..end]
-            .iter()
-            .filter(|c| c.normal.dot(first.normal).abs() >= STACK_ANGLE)
-            .count();
-        if layers > deepest {
-            (deepest, deepest_at) = (layers, Some(i));
+        let count = layers(&crossed[i..end]).count();
+        if count > deepest {
+            (deepest, deepest_window) = (count, Some(i..end));
         }
     }
-    let Some(i) = deepest_at else {
-        return Vec::new();
-    };
-    let first = crossed[i];
-    crossed[i..]
-        .iter()
-        .take_while(|c| c.t - first.t <= tolerance)
-        .filter(|c| c.normal.dot(first.normal).abs() >= STACK_ANGLE)
-        .map(|c| (c.geometry, c.triangle))
-        .collect()
+    deepest_window.map_or_else(Vec::new, |window| {
+        layers(&crossed[window])
+            .map(|c| (c.geometry, c.triangle))
+            .collect()
+    })
 }
 
 /// Stacked alpha-tested layers, from [`alpha_layers_of`] per probe ray.

@@ -50,6 +50,15 @@ fn finding(scene: &Scene, kind: &str) -> rtmesh::lint::Finding {
         .unwrap_or_else(|| panic!("no {kind} finding"))
 }
 
+fn figure(finding: &rtmesh::lint::Finding, name: &str) -> f64 {
+    finding
+        .figures
+        .iter()
+        .find(|f| f.0 == name)
+        .unwrap_or_else(|| panic!("no figure {name}"))
+        .1
+}
+
 /// A fan of `n` triangles of radius 4 around (5, 5, −5).
 fn fan(n: usize) -> TriMesh {
     let centre = Vec3::new(5.0, 5.0, -5.0);
@@ -80,12 +89,7 @@ fn one_sliver_is_found_and_nothing_else() {
     assert_eq!(kinds(&scene), BTreeSet::from(["elongated-triangles"]));
     let found = finding(&scene, "elongated-triangles");
     assert_eq!((found.count, found.worst.clone()), (1, vec![200]));
-    let share = found
-        .figures
-        .iter()
-        .find(|f| f.0 == "share_of_leaf_sah_cost")
-        .unwrap()
-        .1;
+    let share = figure(&found, "share_of_leaf_sah_cost");
     assert!(
         share > 0.3,
         "one sliver carries a third of 201 triangles' box area: {share}"
@@ -156,10 +160,9 @@ fn splitting_a_scattered_geometry_around_another_lowers_the_two_level_estimate()
     let mut scene = Scene::from_mesh(scattered);
     scene.push_mesh(grid(16, Vec3::new(50.0, 50.0, 25.0)), Affine3A::IDENTITY);
     let found = finding(&scene, "scattered-geometry");
-    let figure = |name: &str| found.figures.iter().find(|f| f.0 == name).unwrap().1;
     let (before, after) = (
-        figure("two_level_sah_before"),
-        figure("two_level_sah_after"),
+        figure(&found, "two_level_sah_before"),
+        figure(&found, "two_level_sah_after"),
     );
     let accel = SceneAccel::build(&scene, &BuildSettings::default());
     assert_eq!(before, accel.two_level_sah_cost());
@@ -588,15 +591,6 @@ fn stacked_alpha_layers_are_counted() {
     let mut single = grid(4, Vec3::ZERO);
     single.alpha_tested[0] = true;
     assert!(!kinds(&Scene::from_mesh(single)).contains("stacked-alpha"));
-}
-
-fn figure(finding: &rtmesh::lint::Finding, name: &str) -> f64 {
-    finding
-        .figures
-        .iter()
-        .find(|f| f.0 == name)
-        .unwrap_or_else(|| panic!("no figure {name}"))
-        .1
 }
 
 #[test]
