@@ -520,10 +520,14 @@ fn print_info(name: &str, info: &MeshInfo) {
         "  geometries         {:>10}  ({} instances, {} materials)",
         info.meshes, info.instances, info.materials
     );
-    println!(
-        "  bounds             [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
-        b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
-    );
+    if b.min.cmple(b.max).all() {
+        println!(
+            "  bounds             [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
+            b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
+        );
+    } else {
+        println!("  bounds             none (no finite corner)");
+    }
     println!("  components         {:>10}", info.components);
     println!(
         "  edges              {:>10} manifold, {} boundary, {} non-manifold",
@@ -1635,24 +1639,41 @@ fn print_lint(name: &str, report: &LintReport) {
     if report.findings.is_empty() {
         println!("  no findings");
     }
+    // Findings of one kind past the first few are counted, not printed (`--json` has all).
+    let mut shown: std::collections::BTreeMap<&str, usize> = Default::default();
     for f in &report.findings {
+        let seen = shown.entry(f.kind).or_default();
+        *seen += 1;
+        if *seen > PRINTED_PER_KIND {
+            continue;
+        }
         let figures: Vec<String> = f
             .figures
             .iter()
             .map(|(k, v)| format!("{k} {}", figure_text(*v)))
             .collect();
+        let figures = if figures.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", figures.join(", "))
+        };
         println!(
-            "  [{:?}] geometry {} {}: {} ({}); worst {:?}",
-            f.severity,
-            f.geometry,
-            f.kind,
-            f.count,
-            figures.join(", "),
-            f.worst
+            "  [{:?}] geometry {} {}: {}{figures}; worst {:?}",
+            f.severity, f.geometry, f.kind, f.count, f.worst
         );
         println!("      {}", f.advice);
     }
+    for (kind, &count) in &shown {
+        if count > PRINTED_PER_KIND {
+            let more = count - PRINTED_PER_KIND;
+            println!("  ... and {more} more {kind} findings (--json lists every one)");
+        }
+    }
 }
+
+/// How many findings of one kind `rtmesh lint` prints (a scene of many geometries or
+/// placements may have thousands).
+const PRINTED_PER_KIND: usize = 10;
 
 /// A lint figure as text: whole numbers without decimals, small ones in scientific
 /// notation, the rest to three decimals.

@@ -472,7 +472,7 @@ const EDGE_MARGIN: f32 = 1e-3;
 
 /// Every triangle that each of `width` × `height` primary rays from the default camera
 /// crosses, reduced by `per_ray`. The crossings come from an any-hit traversal that
-/// never stops; instances are visited one by one (a lint measure, not a fast path).
+/// never stops, through the TLAS to every placement whose box the ray meets.
 fn probe_crossings<R: Send>(
     scene: &Scene,
     width: usize,
@@ -481,47 +481,39 @@ fn probe_crossings<R: Send>(
 ) -> Vec<R> {
     use crate::bvh::BuildSettings;
     use crate::trace::traverse::{any_hit, PortableNodeTest};
-    use crate::trace::{Camera, NoCounters, RayQuery, SceneAccel, Workload};
+    use crate::trace::{transform_query, Camera, NoCounters, RayQuery, SceneAccel, Workload};
     // Any tree finds the same crossings: the fast build.
     let accel = SceneAccel::build(scene, &BuildSettings::fast());
     let camera = Camera::default_for(&scene.bounds(), width, height);
     let work = Workload::primary(&camera, width, height);
-    let to_object: Vec<glam::Affine3A> = scene
-        .instances
-        .iter()
-        .map(|i| i.transform.inverse())
-        .collect();
     work.rays
         .par_iter()
         .map(|ray| {
+            let query = RayQuery::new(ray);
             let mut crossed = Vec::new();
-            for (instance, to_object) in scene.instances.iter().zip(&to_object) {
-                let local = crate::Ray {
-                    origin: to_object.transform_point3(ray.origin),
-                    direction: to_object.transform_vector3(ray.direction),
-                    ..*ray
-                };
-                let query = RayQuery::new(&local);
-                let alpha = &scene.meshes[instance.mesh].alpha_tested;
-                let bvh = &accel.blas[instance.mesh];
+            // The crossings with placement `instance`, whose inverse is `to_object`.
+            let mut cross = |instance: usize, to_object: &glam::Affine3A| {
+                let placement = &scene.instances[instance];
+                let local = transform_query(&query, to_object);
+                let alpha = &scene.meshes[placement.mesh].alpha_tested;
                 any_hit::<PortableNodeTest, _, _>(
-                    bvh,
-                    &query,
+                    &accel.blas[placement.mesh],
+                    &local,
                     ray.t_max,
                     &mut NoCounters,
                     |blocks, t_max, _| {
                         for block in blocks {
                             for lane in 0..block.count() as usize {
                                 let triangle = block.triangle(lane);
-                                if let Some((t, u, v)) = triangle.intersect(&query, t_max) {
+                                if let Some((t, u, v)) = triangle.intersect(&local, t_max) {
                                     // The world's edges' cross product: right under
                                     // any affine placement, shears and uneven scales
                                     // included.
-                                    let world = |e| instance.transform.transform_vector3(e);
+                                    let world = |e| placement.transform.transform_vector3(e);
                                     let normal = world(triangle.e1).cross(world(triangle.e2));
                                     crossed.push(Crossing {
                                         t,
-                                        geometry: instance.mesh as u32,
+                                        geometry: placement.mesh as u32,
                                         triangle: triangle.id,
                                         alpha: alpha.get(triangle.id as usize) == Some(&true),
                                         normal: normal.normalize_or_zero(),
@@ -533,6 +525,24 @@ fn probe_crossings<R: Send>(
                         false
                     },
                 );
+            };
+            match &accel.tlas {
+                // One untransformed placement.
+                None => cross(0, &glam::Affine3A::IDENTITY),
+                Some(tlas) => {
+                    any_hit::<PortableNodeTest, _, _>(
+                        tlas,
+                        &query,
+                        ray.t_max,
+                        &mut NoCounters,
+                        |leaves, _, _| {
+                            for leaf in leaves {
+                                cross(leaf.instance as usize, &leaf.world_to_object);
+                            }
+                            false
+                        },
+                    );
+                }
             }
             per_ray(&mut crossed)
         })
@@ -781,11 +791,8 @@ fn lint_pieces(g: usize, pieces: &Pieces, settings: &LintSettings, findings: &mu
 /// and rays would not traverse both.
 fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Finding>) {
     let pairs = overlapping_instances(scene);
-    for a in 0..scene.instances.len() {
-        let mine: Vec<&(usize, usize, f32)> = pairs.iter().filter(|p| p.0 == a).collect();
-        if mine.is_empty() {
-            continue;
-        }
+    for mine in pairs.chunk_by(|p, q| p.0 == q.0) {
+        let a = mine[0].0;
         findings.push(Finding {
             kind: "overlapping-geometries",
             severity: Severity::Info,
@@ -830,21 +837,32 @@ fn estimate_grouping(scene: &Scene, pieces: &[Pieces], findings: &mut [Finding])
     }
 }
 
-/// Pairs of instances `(a, b, overlap)`, `a < b`, whose world boxes overlap by half or
-/// more: `overlap` = half-area of the boxes' intersection over the smaller box's.
-/// Empty for fewer than 2 or more than 2,000 instances (the test is quadratic).
+/// Pairs of instances `(a, b, overlap)`, `a < b`, in order, whose world boxes overlap
+/// by half or more: `overlap` = half-area of the boxes' intersection over the smaller
+/// box's. Sort and sweep: the boxes sorted along the axis where their centres spread
+/// most, each compared with those that start before it ends on that axis. O(n log n +
+/// the pairs that overlap on that axis).
 pub fn overlapping_instances(scene: &Scene) -> Vec<(usize, usize, f32)> {
+    let mesh_bounds: Vec<Aabb> = scene.meshes.iter().map(TriMesh::bounds).collect();
     let boxes: Vec<Aabb> = scene
         .instances
         .iter()
-        .map(|i| scene.meshes[i.mesh].bounds().transformed(&i.transform))
+        .map(|i| mesh_bounds[i.mesh].transformed(&i.transform))
         .collect();
-    if !(2..=2_000).contains(&boxes.len()) {
-        return Vec::new();
-    }
+    // A mesh with no finite corner has an empty box, which overlaps nothing.
+    let mut order: Vec<usize> = (0..boxes.len()).filter(|&i| !boxes[i].is_empty()).collect();
+    let centres = order
+        .iter()
+        .fold(Aabb::EMPTY, |c, &i| c.grown_by_point(boxes[i].center()));
+    let axis = centres.extent().max_position();
+    order.sort_unstable_by(|&a, &b| boxes[a].min[axis].total_cmp(&boxes[b].min[axis]));
     let mut pairs = Vec::new();
-    for a in 0..boxes.len() {
-        for b in a + 1..boxes.len() {
+    for (k, &a) in order.iter().enumerate() {
+        let reach = boxes[a].max[axis];
+        for &b in order[k + 1..]
+            .iter()
+            .take_while(|&&b| boxes[b].min[axis] <= reach)
+        {
             let shared = boxes[a].intersection(boxes[b]);
             if shared.is_empty() {
                 continue;
@@ -852,10 +870,11 @@ pub fn overlapping_instances(scene: &Scene) -> Vec<(usize, usize, f32)> {
             let smaller = boxes[a].half_area().min(boxes[b].half_area());
             let overlap = shared.half_area() / smaller.max(f32::MIN_POSITIVE);
             if overlap >= 0.5 {
-                pairs.push((a, b, overlap));
+                pairs.push((a.min(b), a.max(b), overlap));
             }
         }
     }
+    pairs.sort_unstable_by_key(|&(a, b, _)| (a, b));
     pairs
 }
 

@@ -187,6 +187,45 @@ fn overlapping_geometries_are_found() {
     assert_eq!(finding(&scene, "overlapping-geometries").worst, vec![1]);
 }
 
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// The sweep finds exactly the pairs that comparing every two boxes finds, in order,
+    /// among random placements (scaled, translated, some empty) that often overlap.
+    #[test]
+    fn overlapping_instances_are_those_of_the_quadratic_check(seed in 0u64..10_000, n in 0usize..60) {
+        let mut rng = rtmesh::random::SplitMix64::new(seed);
+        let mut scene = Scene::from_mesh(rtmesh::scenes::box_mesh(Vec3::ZERO, Vec3::ONE));
+        scene.instances.clear();
+        let empty = scene.meshes.len();
+        scene.meshes.push(TriMesh::default());
+        for _ in 0..n {
+            let at = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0;
+            let size = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0;
+            let mesh = if rng.next_f32() < 0.1 { empty } else { 0 };
+            let transform = Affine3A::from_scale_rotation_translation(size, Default::default(), at);
+            scene.instances.push(rtmesh::mesh::Instance { mesh, transform });
+        }
+        let boxes: Vec<rtmesh::geom::Aabb> = scene
+            .instances
+            .iter()
+            .map(|i| scene.meshes[i.mesh].bounds().transformed(&i.transform))
+            .collect();
+        let mut expected = Vec::new();
+        for a in 0..n {
+            for b in a + 1..n {
+                let shared = boxes[a].intersection(boxes[b]);
+                let smaller = boxes[a].half_area().min(boxes[b].half_area());
+                let overlap = shared.half_area() / smaller.max(f32::MIN_POSITIVE);
+                if !shared.is_empty() && overlap >= 0.5 {
+                    expected.push((a, b, overlap));
+                }
+            }
+        }
+        prop_assert_eq!(rtmesh::lint::overlapping_instances(&scene), expected);
+    }
+}
+
 #[test]
 fn mixed_alpha_is_found() {
     let mut mesh = grid(4, Vec3::ZERO);

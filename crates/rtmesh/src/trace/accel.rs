@@ -441,8 +441,10 @@ impl<L: LeafBlock> Tracer for SceneAccel<L> {
     }
 }
 
+/// `query` in the object space of a placement whose inverse is `world_to_object` (the
+/// direction is not renormalised, so `t` means the same in both spaces).
 #[inline(always)]
-fn transform_query(query: &RayQuery, world_to_object: &Affine3A) -> RayQuery {
+pub(crate) fn transform_query(query: &RayQuery, world_to_object: &Affine3A) -> RayQuery {
     RayQuery::new(&Ray {
         origin: world_to_object.transform_point3(query.origin),
         direction: world_to_object.transform_vector3(query.direction),

@@ -16,6 +16,7 @@ pub mod traverse;
 pub mod triangle;
 pub mod workload;
 
+pub(crate) use accel::transform_query;
 pub use accel::SceneAccel;
 pub use pair::{Pair4, TrianglePair};
 pub use triangle::Triangle;
