@@ -717,16 +717,25 @@ fn run(cli: Cli) -> Result<()> {
                 },
                 ..RepairSettings::default()
             };
+            let measuring = size.0 > 0;
+            let bar = steps_bar(
+                1 + output.is_some() as usize + measuring as usize * (1 + 2 * runs.max(1)),
+            );
+            bar.set_message(format!("repairing {mesh}"));
             let (repaired, maps, report) = rtmesh::repair::repair(&scene, &settings);
+            bar.inc(1);
             if let Some(output) = &output {
+                bar.set_message(format!("writing {}", output.display()));
                 rtmesh::io::write(&repaired, output)?;
+                bar.inc(1);
             }
             if let Some(path) = &map {
                 std::fs::write(path, serde_json::to_string(&maps)?)
                     .with_context(|| format!("writing {}", path.display()))?;
             }
             let measured =
-                (size.0 > 0).then(|| measure_before_after(&scene, &repaired, size, runs));
+                measuring.then(|| measure_before_after(&scene, &repaired, size, runs, &bar));
+            bar.finish_and_clear();
             if json {
                 let mut value = serde_json::to_value(&report)?;
                 value["mesh"] = serde_json::json!(mesh);
@@ -1012,7 +1021,8 @@ fn run(cli: Cli) -> Result<()> {
                     ..RepairSettings::default()
                 };
                 let (repaired, _, repair) = rtmesh::repair::repair(&scene, &settings);
-                let measured = measure_before_after(&scene, &repaired, (256, 256), 1);
+                let measured =
+                    measure_before_after(&scene, &repaired, (256, 256), 1, &ProgressBar::hidden());
                 if !json {
                     print_info(&format!("builtin:{name}"), &info);
                     let bvh = accel.stats();
@@ -1701,23 +1711,28 @@ struct BeforeAfter {
 }
 
 /// Trace the same primary and diffuse rays through `before` and `after`, alternating
-/// `runs` rounds; medians and counts per ray.
+/// `runs` rounds; medians and counts per ray. Each step moves `bar` on.
 fn measure_before_after(
     before: &Scene,
     after: &Scene,
     (width, height): (usize, usize),
     runs: usize,
+    bar: &ProgressBar,
 ) -> Vec<BeforeAfter> {
+    bar.set_message("building the BVHs before and after");
     let accel_before = SceneAccel::build(before, &BuildSettings::default());
     let accel_after = SceneAccel::build(after, &BuildSettings::default());
+    bar.inc(1);
     [RayKind::Primary, RayKind::Diffuse]
         .into_iter()
         .map(|kind| {
+            bar.set_message(format!("tracing {} rays before and after", kind.name()));
             let work = Workload::generate(kind, before, &accel_before, width, height, 1);
             let (mut a, mut b) = (Vec::new(), Vec::new());
             for _ in 0..runs.max(1) {
                 a.push(workload::measure(&accel_before, &work, 1));
                 b.push(workload::measure(&accel_after, &work, 1));
+                bar.inc(1);
             }
             let median = |runs: &[rtmesh::trace::TraceRun]| {
                 workload::median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>())
