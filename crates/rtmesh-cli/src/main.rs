@@ -94,9 +94,11 @@ enum Command {
     /// Per geometry: elongated triangles (box mostly empty space, or long and thin),
     /// fans, degenerate, inactive (NaN), infinite and out-of-range triangles, duplicate
     /// and back-to-back (mirrored) triangles, alpha-tested triangles mixed with opaque
-    /// ones, geometries whose pieces are far apart, and geometries whose boxes overlap.
-    /// Each finding has a count, the worst offenders' ids, a severity, figures and one
-    /// line of advice. The grouping findings add the two-level SAH cost (TLAS over
+    /// ones, geometries whose pieces are far apart, and geometries whose boxes overlap;
+    /// over the scene, 128² probe rays that cross several alpha-tested triangles or a
+    /// stack of parallel triangles at one depth. Each finding has a count, the worst
+    /// offenders' ids, a severity, figures and one line of advice (the text lists 10
+    /// findings of a kind and counts the rest; --json lists all). The grouping findings add the two-level SAH cost (TLAS over
     /// instances, each charged its BLAS's cost) of the scene as it is and as `repair
     /// --split-scattered --merge-overlapping` would regroup it: an estimate, which
     /// repair checks with probe rays before it keeps a regrouping.

@@ -690,6 +690,57 @@ fn stacked_layers_are_found_and_two_are_not() {
 }
 
 #[test]
+fn stacks_crossed_at_their_edges_are_no_stacks() {
+    // Two stacks of three tiny parallel triangles 10⁻⁵ apart, each under one probe ray
+    // (they are far smaller than the rays' spacing). The ray crosses stack A 3·10⁻⁴
+    // (barycentric) from an edge of every layer, inside the edge margin of 10⁻³, where
+    // a ray meets a surface's neighbouring triangles at one depth; it crosses stack B
+    // in the middle. A floor below and a speck above fix the scene's box, so the probe
+    // rays do not depend on where the stacks go.
+    let floor = grid(8, Vec3::new(0.0, 0.0, -4.0));
+    let speck = [
+        Vec3::Z,
+        Vec3::new(0.01, 0.0, 1.0),
+        Vec3::new(0.0, 0.01, 1.0),
+    ];
+    let bounds = with(floor.clone(), &[speck]).bounds();
+    let camera = rtmesh::trace::Camera::default_for(&bounds, 128, 128);
+    let rays = Workload::primary(&camera, 128, 128).rays;
+    let at_z = |ray: &rtmesh::Ray, z: f32| {
+        ray.origin + (z - ray.origin.z) / ray.direction.z * ray.direction
+    };
+    let ray_through = |lo: f32, hi: f32| {
+        rays.iter()
+            .find(|r| {
+                let p = at_z(r, 0.0);
+                (lo..hi).contains(&p.x) && (lo..hi).contains(&p.y)
+            })
+            .expect("a probe ray over the floor")
+    };
+    // Three layers, each placed so that `ray` crosses it at barycentrics (1 − u − v, u, v).
+    let side = 0.01;
+    let stack = |ray: &rtmesh::Ray, u: f32, v: f32| -> Vec<[Vec3; 3]> {
+        (0..3)
+            .map(|k| {
+                let p = at_z(ray, k as f32 * 1e-5);
+                let v0 = p - Vec3::new(u * side, v * side, 0.0);
+                [v0, v0 + Vec3::X * side, v0 + Vec3::Y * side]
+            })
+            .collect()
+    };
+    let near_edge = stack(ray_through(2.0, 3.0), 0.5, 3e-4);
+    let in_middle = stack(ray_through(5.0, 6.0), 1.0 / 3.0, 1.0 / 3.0);
+    let first = floor.triangle_count() as u32 + 1;
+    let mesh = with(with(with(floor, &[speck]), &near_edge), &in_middle);
+    assert_eq!(mesh.bounds(), bounds, "the probe rays stay put");
+    let found = finding(&Scene::from_mesh(mesh), "stacked-triangles");
+    assert_eq!(found.count, 3, "stack B only: {:?}", found.worst);
+    let mut worst = found.worst.clone();
+    worst.sort_unstable();
+    assert_eq!(worst, vec![first + 3, first + 4, first + 5]);
+}
+
+#[test]
 fn interleaved_geometries_are_merged_when_the_tracer_agrees() {
     // Two combs of small blobs interleaved along x: their boxes coincide, so every ray
     // traverses both BVHs; merged, one BVH separates the teeth.
