@@ -98,10 +98,11 @@ enum Command {
     /// over the scene, 128² probe rays that cross several alpha-tested triangles or a
     /// stack of parallel triangles at one depth. Each finding has a count, the worst
     /// offenders' ids, a severity, figures and one line of advice (the text lists 10
-    /// findings of a kind and counts the rest; --json lists all). The grouping findings add the two-level SAH cost (TLAS over
-    /// instances, each charged its BLAS's cost) of the scene as it is and as `repair
-    /// --split-scattered --merge-overlapping` would regroup it: an estimate, which
-    /// repair checks with probe rays before it keeps a regrouping.
+    /// findings of a kind and counts the rest; --json lists all). The grouping findings
+    /// add the two-level SAH cost (TLAS over instances, each charged its BLAS's cost) of
+    /// the scene as it is and as `repair --split-scattered --merge-overlapping` would
+    /// regroup it: an estimate, which repair checks with probe rays before it keeps a
+    /// regrouping.
     Lint {
         /// The mesh file, or builtin:NAME.
         mesh: String,
@@ -522,7 +523,7 @@ fn print_info(name: &str, info: &MeshInfo) {
         "  geometries         {:>10}  ({} instances, {} materials)",
         info.meshes, info.instances, info.materials
     );
-    if b.min.cmple(b.max).all() {
+    if !b.is_empty() {
         println!(
             "  bounds             [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
             b.min.x, b.min.y, b.min.z, b.max.x, b.max.y, b.max.z
