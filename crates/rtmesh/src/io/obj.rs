@@ -25,6 +25,7 @@ pub(super) fn read<R: BufRead>(
         ignore_points: false,
         ignore_lines: false,
     };
+    check_attribute_indices(path, &text)?;
     let directory = path.parent().map(Path::to_owned).unwrap_or_default();
     let mut ignore = |_: u64, _: u64| {};
     let mut lines = CountingReader::new(&text[..], text.len() as u64, &mut ignore);
@@ -132,6 +133,49 @@ fn describe(error: tobj::LoadError) -> String {
         tobj::LoadError::PositionParseError => "bad vertex: expected 'v x y z' with numbers".into(),
         other => format!("{other}"),
     }
+}
+
+/// Texture coordinate and normal indices of faces (and lines and points) that tobj
+/// 4.0.5 would multiply without an overflow check: 0, a relative index before the first
+/// `vt` / `vn`, or one past 2³². In a debug build such a file panics inside tobj, in a
+/// release build the index wraps; here it is an error at its line. (Positions, which
+/// tobj checks, and indices past the attributes read so far, which it reports when the
+/// group ends, are left to tobj.)
+fn check_attribute_indices(path: &Path, text: &[u8]) -> Result<(), MeshError> {
+    let (mut texcoords, mut normals) = (0i64, 0i64);
+    for (number, line) in text.split(|&b| b == b'\n').enumerate() {
+        // tobj reports lines that are not UTF-8.
+        let Ok(line) = std::str::from_utf8(line) else {
+            continue;
+        };
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("vt") => texcoords += 1,
+            Some("vn") => normals += 1,
+            Some("f" | "l" | "p") => {
+                for word in words {
+                    // v/vt/vn: the second and third parts.
+                    let mut parts = word.split('/').skip(1);
+                    for (count, what) in [(texcoords, "texture coordinate"), (normals, "normal")] {
+                        let index = parts.next().and_then(|p| p.parse::<i64>().ok());
+                        if let Some(x) =
+                            index.filter(|&x| x == 0 || x < -count || x > u32::MAX as i64)
+                        {
+                            return Err(MeshError::at_line(
+                                path,
+                                number + 1,
+                                format!(
+                                    "face {what} index {x} is out of range ({count} read so far)"
+                                ),
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// 1-based line of the `n`-th (0-based) face statement, found only when reporting an error.

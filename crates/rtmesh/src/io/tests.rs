@@ -17,7 +17,7 @@ fn error_of(name: &str, bytes: &[u8]) -> String {
 
 #[test]
 fn obj_errors_name_file_and_line() {
-    let cases: [(&[u8], &str); 6] = [
+    let cases: [(&[u8], &str); 9] = [
         (
             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n",
             "bad.obj:5:",
@@ -36,6 +36,19 @@ fn obj_errors_name_file_and_line() {
             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 3\n",
             "bad.obj:5: face has 1 vertices",
         ),
+        // Attribute indices that tobj would wrap (or panic on, in a debug build).
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/0 3/1\n",
+            "bad.obj:5: face texture coordinate index 0 is out of range (1 read so far)",
+        ),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//-1 2//-2 3//-1\n",
+            "bad.obj:5: face normal index -2 is out of range (1 read so far)",
+        ),
+        (
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nl 1//1 2//4294967296\n",
+            "bad.obj:5: face normal index 4294967296 is out of range (1 read so far)",
+        ),
     ];
     for (bytes, expected) in cases {
         let message = error_of("bad.obj", bytes);
@@ -44,6 +57,14 @@ fn obj_errors_name_file_and_line() {
             "{message:?} should start with {expected:?}"
         );
     }
+}
+
+#[test]
+fn obj_attribute_indices_in_range_read() {
+    // Absolute and relative texture coordinate and normal indices, all in range.
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvn 0 0 1\nf 1/1/1 2/-1/-1 3/2/1\n";
+    let scene = read_bytes(Path::new("ok.obj"), obj).expect("valid indices");
+    assert_eq!(scene.meshes[0].triangles, vec![[0, 1, 2]]);
 }
 
 #[test]
