@@ -19,13 +19,13 @@ pub(super) fn read<R: BufRead>(
     reader
         .read_to_end(&mut text)
         .map_err(|e| MeshError::io(path, e))?;
+    check_attribute_indices(path, &text)?;
     let options = tobj::LoadOptions {
         single_index: false,
         triangulate: false,
         ignore_points: false,
         ignore_lines: false,
     };
-    check_attribute_indices(path, &text)?;
     let directory = path.parent().map(Path::to_owned).unwrap_or_default();
     let mut ignore = |_: u64, _: u64| {};
     let mut lines = CountingReader::new(&text[..], text.len() as u64, &mut ignore);
