@@ -720,10 +720,8 @@ fn run(cli: Cli) -> Result<()> {
                 },
                 ..RepairSettings::default()
             };
-            let measuring = size.0 > 0;
-            let bar = steps_bar(
-                1 + output.is_some() as usize + measuring as usize * (1 + 2 * runs.max(1)),
-            );
+            // Repairing and writing; measuring adds its own steps.
+            let bar = steps_bar(1 + output.is_some() as usize);
             bar.set_message(format!("repairing {mesh}"));
             let (repaired, maps, report) = rtmesh::repair::repair(&scene, &settings);
             bar.inc(1);
@@ -737,7 +735,7 @@ fn run(cli: Cli) -> Result<()> {
                     .with_context(|| format!("writing {}", path.display()))?;
             }
             let measured =
-                measuring.then(|| measure_before_after(&scene, &repaired, size, runs, &bar));
+                (size.0 > 0).then(|| measure_before_after(&scene, &repaired, size, runs, &bar));
             bar.finish_and_clear();
             if json {
                 let mut value = serde_json::to_value(&report)?;
@@ -1714,7 +1712,8 @@ struct BeforeAfter {
 }
 
 /// Trace the same primary and diffuse rays through `before` and `after`, alternating
-/// `runs` rounds; medians and counts per ray. Each step moves `bar` on.
+/// `runs` rounds; medians and counts per ray. Adds its steps (the builds, then each
+/// round of each workload) to `bar` and moves it on through them.
 fn measure_before_after(
     before: &Scene,
     after: &Scene,
@@ -1722,11 +1721,13 @@ fn measure_before_after(
     runs: usize,
     bar: &ProgressBar,
 ) -> Vec<BeforeAfter> {
+    const WORKLOADS: [RayKind; 2] = [RayKind::Primary, RayKind::Diffuse];
+    bar.inc_length((1 + WORKLOADS.len() * runs.max(1)) as u64);
     bar.set_message("building the BVHs before and after");
     let accel_before = SceneAccel::build(before, &BuildSettings::default());
     let accel_after = SceneAccel::build(after, &BuildSettings::default());
     bar.inc(1);
-    [RayKind::Primary, RayKind::Diffuse]
+    WORKLOADS
         .into_iter()
         .map(|kind| {
             bar.set_message(format!("tracing {} rays before and after", kind.name()));
