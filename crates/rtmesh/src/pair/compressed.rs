@@ -42,7 +42,8 @@ const FIELD_MAX: f32 = ((1u32 << FIELD_BITS) - 1) as f32;
 /// The same pairing as [`pair_sah_compressed_reference`].
 pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
     let keys = PositionKeys::new(mesh);
-    let couples = Couples::link(mesh.triangle_count(), &keys);
+    // Position keys have no AVX-512 run search.
+    let couples = Couples::link(mesh.triangle_count(), &keys, false);
     match_greedily(couples, |t| {
         let sides = &keys.keys[3 * t..3 * t + 3];
         [0, 1, 2].map(|k| couple_key(sides[k], 0))

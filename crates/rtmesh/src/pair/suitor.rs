@@ -16,9 +16,13 @@
 //! whose couples are listed apart with their keys ([`ExtraCouple`]). Twins are found
 //! block by block in cache ([`Couples::link`]); the pairing method says how its
 //! half-edges are keyed and blocked ([`EdgeKeys`]: by smaller vertex for indexed
-//! input, by cell of space and key hash for position keys). When no edge has more than
-//! two half-edges, a triangle's whole matching state is one byte: the order of its
-//! sides' keys and the side its suitor is across ([`match_by_side_ranks`]), and on
+//! input, by cell of space and key hash for position keys). The search of a run is the
+//! hot loop; for indexed half-edges it is also hand-written in AVX-512 (one
+//! conflict-detection instruction finds a run's twins), taken where the CPU has it
+//! (detected at run time), and the scalar window is the reference the tests hold it to.
+//! When no edge has more than two half-edges, a triangle's whole matching state is one
+//! byte: the order of its sides' keys and the side its suitor is across
+//! ([`match_by_side_ranks`]), and on
 //! several threads the same matching is found in rounds ([`match_in_rounds`]); else
 //! keys are `u128`s from the pairing method, computed when a triangle proposes.
 //! Cost: O(T) time (O(E · max degree) proposals at worst, and O(L log L) for a run of
@@ -61,6 +65,16 @@ pub(super) trait HalfEdge: Copy + Default + Send + Sync {
     fn edge(&self) -> Self::Edge;
     /// The half-edge (`3t + k`).
     fn id(&self) -> u32;
+    /// [`couple_pairs`] for a run of at most [`HalfEdge::WINDOW`] half-edges in AVX-512
+    /// registers, for half-edges that have such a kernel (else `None`). It may leave a
+    /// side with no couple unwritten ([`NO_COUPLE`] is where `across` starts).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]); as [`couple_pairs`],
+    /// the run's slots in `destination` are this thread's.
+    unsafe fn couple_pairs_avx512(_run: &[Self], _destination: &SharedSlice<u32>) -> Option<bool> {
+        None
+    }
 }
 
 /// How a pairing method keys the half-edges for [`Couples::link`]: blocks of runs, such
@@ -113,8 +127,10 @@ impl Couples {
     /// per block; the second writes them out by block. The third takes a block at a
     /// time, in cache: a counting sort on the run gathers each run's half-edges
     /// (ascending ids), among which every edge's are found by comparing edges. Parts of
-    /// the triangles, then blocks, on the pool's threads.
-    pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K) -> Self {
+    /// the triangles, then blocks, on the pool's threads. When `avx512` (which the CPU
+    /// must have: [`has_avx512_conflict`]), runs are searched in AVX-512 registers by
+    /// the half-edges' [`HalfEdge::couple_pairs_avx512`], where they have one.
+    pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K, avx512: bool) -> Self {
         let n = triangle_count;
         let blocks = keys.blocks().max(1);
         let part_len = triangle_part_len(n);
@@ -191,14 +207,15 @@ impl Couples {
                         sorted[*c as usize] = *h;
                         *c += 1;
                     }
-                    // `start[r]` is now where run r + 1 starts.
-                    let mut from = 0;
-                    for r in 0..runs {
-                        let run = &sorted[from..start[r] as usize];
-                        from = start[r] as usize;
-                        if !couple_pairs(run, keys, destination) {
-                            couple_run(run, keys, destination, &mut extra);
-                        }
+                    // `start[r]` is now where run r ends.
+                    let ends = &start[..runs];
+                    match avx512 {
+                        // SAFETY: `avx512` says the CPU has the features.
+                        #[cfg(target_arch = "x86_64")]
+                        true => unsafe {
+                            couple_runs_avx512(&sorted, ends, keys, destination, &mut extra)
+                        },
+                        _ => couple_runs::<K, false>(&sorted, ends, keys, destination, &mut extra),
                     }
                     (extra, sorted, start)
                 },
@@ -215,11 +232,65 @@ impl Couples {
     }
 }
 
+/// Whether this CPU has AVX-512 F and CD (conflict detection), for
+/// [`HalfEdge::couple_pairs_avx512`] (detected once, then a cached flag).
+pub(crate) fn has_avx512_conflict() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512cd")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Couple the runs of a block sorted by run, run `r` ending at `ends[r]`
+/// ([`couple_pairs`], or [`couple_run`] where that declines), with the AVX-512 run
+/// search when `AVX512`.
+#[inline(always)]
+fn couple_runs<K: EdgeKeys, const AVX512: bool>(
+    sorted: &[K::HalfEdge],
+    ends: &[u32],
+    keys: &K,
+    destination: &SharedSlice<u32>,
+    extra: &mut Vec<ExtraCouple>,
+) {
+    let mut from = 0;
+    for &end in ends {
+        let run = &sorted[from..end as usize];
+        from = end as usize;
+        if !couple_pairs::<K, AVX512>(run, keys, destination) {
+            couple_run(run, keys, destination, extra);
+        }
+    }
+}
+
+/// [`couple_runs`] compiled for AVX-512, so that [`HalfEdge::couple_pairs_avx512`]
+/// inlines into the loop.
+///
+/// # Safety
+/// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512cd")]
+unsafe fn couple_runs_avx512<K: EdgeKeys>(
+    sorted: &[K::HalfEdge],
+    ends: &[u32],
+    keys: &K,
+    destination: &SharedSlice<u32>,
+    extra: &mut Vec<ExtraCouple>,
+) {
+    couple_runs::<K, true>(sorted, ends, keys, destination, extra);
+}
+
 /// Couple the half-edges of one run when it is at most [`HalfEdge::WINDOW`] long and
 /// every edge in it has at most two: two on one edge couple when they may. Returns
 /// false, having written nothing that [`couple_run`] will not overwrite, otherwise.
-#[inline]
-fn couple_pairs<K: EdgeKeys>(
+/// When `AVX512` (which the CPU must have), a half-edge's own kernel runs instead
+/// where it has one.
+#[inline(always)]
+fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
     run: &[K::HalfEdge],
     keys: &K,
     destination: &SharedSlice<u32>,
@@ -227,6 +298,12 @@ fn couple_pairs<K: EdgeKeys>(
     type H<K> = <K as EdgeKeys>::HalfEdge;
     if run.len() > H::<K>::WINDOW {
         return false;
+    }
+    if AVX512 {
+        // SAFETY: AVX512 is set only when the CPU has the features.
+        if let Some(coupled) = unsafe { H::<K>::couple_pairs_avx512(run, destination) } {
+            return coupled;
+        }
     }
     // The edges in a fixed window (an edge no half-edge has in the spare lanes),
     // compared all at once: lanes where e's edge is.

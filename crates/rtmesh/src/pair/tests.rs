@@ -1,4 +1,5 @@
-use super::greedy::{pair_sah, pair_sah_reference, sorted_half_edge_table};
+use super::greedy::{pair_sah, pair_sah_reference, pair_sah_with, sorted_half_edge_table};
+use super::suitor::has_avx512_conflict;
 use super::*;
 use crate::mesh::weld_exact;
 use glam::Vec3;
@@ -166,6 +167,16 @@ fn random_mesh() -> impl Strategy<Value = TriMesh> {
         })
 }
 
+/// The twin searches of [`pair_sah_with`] that this CPU runs: the scalar one, and the
+/// AVX-512 one where it has AVX-512 F and CD.
+fn twin_searches() -> Vec<bool> {
+    let mut searches = vec![false];
+    if has_avx512_conflict() {
+        searches.push(true);
+    }
+    searches
+}
+
 /// A pool of `threads` threads.
 fn pool(threads: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new()
@@ -177,14 +188,17 @@ fn pool(threads: usize) -> rayon::ThreadPool {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
-    /// On one thread (the Suitor matching) and on two (the matching in rounds).
+    /// On one thread (the Suitor matching) and on two (the matching in rounds); with
+    /// the scalar twin search and, where the CPU has it, the AVX-512 one.
     #[test]
     fn fast_greedy_equals_the_published_procedure(mesh in random_mesh()) {
         let reference = pair_sah_reference(&mesh);
         for threads in [1, 2] {
-            let fast = pool(threads).install(|| pair_sah(&mesh));
-            prop_assert_eq!(&fast, &reference, "{} threads", threads);
-            assert_valid(&mesh, &fast);
+            for avx512 in twin_searches() {
+                let fast = pool(threads).install(|| pair_sah_with(&mesh, avx512));
+                prop_assert_eq!(&fast, &reference, "{} threads, AVX-512 {}", threads, avx512);
+                assert_valid(&mesh, &fast);
+            }
         }
     }
 
@@ -418,8 +432,9 @@ fn parallel_parts_pair_like_one_thread() {
     }
 }
 
-/// Both fast routes, by index and by position, give the published procedures'
-/// pairings of `mesh` in a pool of each of `thread_counts`; returns the indexed one.
+/// Both fast routes, by index (with each of [`twin_searches`]) and by position, give the
+/// published procedures' pairings of `mesh` in a pool of each of `thread_counts`;
+/// returns the indexed one.
 fn assert_fast_routes_pair_like_the_references(
     mesh: &TriMesh,
     thread_counts: &[usize],
@@ -429,11 +444,13 @@ fn assert_fast_routes_pair_like_the_references(
     let by_position = compressed::pair_sah_compressed_reference(mesh);
     for &threads in thread_counts {
         let pool = pool(threads);
-        assert_eq!(
-            pool.install(|| pair_sah(mesh)),
-            reference,
-            "{what}, {threads} threads"
-        );
+        for avx512 in twin_searches() {
+            assert_eq!(
+                pool.install(|| pair_sah_with(mesh, avx512)),
+                reference,
+                "{what}, {threads} threads, AVX-512 {avx512}"
+            );
+        }
         assert_eq!(
             pool.install(|| compressed::pair_sah_compressed(mesh)),
             by_position,
