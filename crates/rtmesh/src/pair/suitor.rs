@@ -101,6 +101,22 @@ pub(super) trait EdgeKeys: Sync {
     fn extra_key(&self, h: &Self::HalfEdge, rank: u32) -> u128;
     /// Whether `a` and `b`, two half-edges on one edge, may be a couple.
     fn may_couple(&self, a: &Self::HalfEdge, b: &Self::HalfEdge) -> bool;
+    /// The first pass of [`Couples::link`] in AVX-512, for keys that have such a
+    /// kernel, over a prefix of the triangles from `first`: their bytes of `ranks` as
+    /// the scalar pass writes them (`ranks` starts as [`EXCLUDED`]), and their
+    /// half-edges counted into `count` per block. Returns the prefix's length (0 where
+    /// there is no kernel); the scalar pass does the rest.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]).
+    unsafe fn rank_and_count_avx512(
+        &self,
+        _first: usize,
+        _ranks: &mut [u8],
+        _count: &mut [u32],
+    ) -> usize {
+        0
+    }
 }
 
 /// The longest fixed window of [`couple_pairs`].
@@ -114,7 +130,7 @@ pub(super) fn side_ranks<K: PartialOrd>(keys: &[K; 3]) -> u8 {
 }
 
 /// [`Couples::side_ranks`] of a triangle that takes no part.
-const EXCLUDED: u8 = 0xff;
+pub(super) const EXCLUDED: u8 = 0xff;
 
 impl Couples {
     /// The couples of the half-edges that `keys` gives: two half-edges couple when they
@@ -141,7 +157,12 @@ impl Couples {
             .enumerate()
             .map(|(p, ranks)| {
                 let mut count = vec![0u32; blocks];
-                for (i, r) in ranks.iter_mut().enumerate() {
+                let done = match avx512 {
+                    // SAFETY: `avx512` says the CPU has the features.
+                    true => unsafe { keys.rank_and_count_avx512(p * part_len, ranks, &mut count) },
+                    false => 0,
+                };
+                for (i, r) in ranks.iter_mut().enumerate().skip(done) {
                     let t = p * part_len + i;
                     if let Some(rank) = keys.side_ranks(t) {
                         *r = rank | NO_SUITOR << 6;
@@ -619,7 +640,7 @@ fn twin_across(across: &[u32], t: usize, side: u8) -> u32 {
 }
 
 /// [`match_by_side_ranks`]' value for "no suitor" (and the rank worse than all).
-const NO_SUITOR: u8 = 3;
+pub(super) const NO_SUITOR: u8 = 3;
 
 /// Suitor with whole keys: `offer[t]` is the key of `t`'s suitor's couple.
 fn match_by_keys(couples: &Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> Pairing {
