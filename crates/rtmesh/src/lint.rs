@@ -791,8 +791,21 @@ fn lint_pieces(g: usize, pieces: &Pieces, settings: &LintSettings, findings: &mu
 /// and rays would not traverse both.
 fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Finding>) {
     let pairs = overlapping_instances(scene);
+    let mut placements = vec![0usize; scene.meshes.len()];
+    for instance in &scene.instances {
+        placements[instance.mesh] += 1;
+    }
+    let instanced = |i: usize| placements[scene.instances[i].mesh] > 1;
     for mine in pairs.chunk_by(|p, q| p.0 == q.0) {
         let a = mine[0].0;
+        let advice = if instanced(a) || mine.iter().any(|p| instanced(p.1)) {
+            "rays through the overlap traverse several BVHs; instanced geometry is \
+             involved, which merging would copy (`repair --merge-overlapping` leaves it): \
+             place the instances apart, or accept the extra traversal"
+        } else {
+            "rays through the overlap traverse several BVHs: merge geometries whose \
+             boxes overlap this much into one (`repair --merge-overlapping`)"
+        };
         findings.push(Finding {
             kind: "overlapping-geometries",
             severity: Severity::Info,
@@ -807,8 +820,7 @@ fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Find
                 "largest_box_overlap",
                 mine.iter().map(|p| p.2).fold(0.0, f32::max) as f64,
             )],
-            advice: "rays through the overlap traverse several BVHs: merge geometries \
-                     whose boxes overlap this much into one",
+            advice,
         });
     }
 }

@@ -184,7 +184,24 @@ fn overlapping_geometries_are_found() {
     let mut scene = Scene::from_mesh(rtmesh::scenes::box_mesh(Vec3::ZERO, Vec3::splat(10.0)));
     scene.push_mesh(grid(10, Vec3::new(0.0, 0.0, 5.0)), Affine3A::IDENTITY);
     assert_eq!(kinds(&scene), BTreeSet::from(["overlapping-geometries"]));
-    assert_eq!(finding(&scene, "overlapping-geometries").worst, vec![1]);
+    let found = finding(&scene, "overlapping-geometries");
+    assert_eq!(found.worst, vec![1]);
+    assert!(found.advice.contains("merge geometries"), "{}", found.advice);
+}
+
+/// Overlapping placements of one geometry are found too, but merging them would copy
+/// the geometry (and `repair --merge-overlapping` leaves them): the advice says so.
+#[test]
+fn overlapping_instances_of_one_geometry_are_not_advised_to_merge() {
+    let mut scene = Scene::from_mesh(rtmesh::scenes::box_mesh(Vec3::ZERO, Vec3::splat(10.0)));
+    scene.instances.push(rtmesh::Instance {
+        mesh: 0,
+        transform: Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.0)),
+    });
+    let found = finding(&scene, "overlapping-geometries");
+    assert_eq!(found.worst, vec![1]);
+    assert!(found.advice.contains("instanced geometry"), "{}", found.advice);
+    assert!(!found.advice.contains("merge geometries"), "{}", found.advice);
 }
 
 proptest! {

@@ -18,6 +18,13 @@
 //! bytes per half-edge for the blocks, 4 for the twins, 1 per triangle for the
 //! matching. The twin search splits its work over the rayon pool's threads, and so
 //! does the matching when there is more than one (in rounds, module `suitor`).
+//!
+//! Two loops of the twin search are also written by hand in AVX-512 (F and CD), taken
+//! when the CPU has them (detected at run time): ranking the triangles' sides 16 at a
+//! time, and finding a run's twins with one conflict-detection instruction. They are
+//! the hot kernels of the technique, and a compiler does not find either (built for
+//! the CPU, the scalar code runs no faster). The scalar loops are the reference: tests
+//! run both and hold each to the published procedure.
 
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
