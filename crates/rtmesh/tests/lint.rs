@@ -186,7 +186,8 @@ fn overlapping_geometries_are_found() {
     assert_eq!(kinds(&scene), BTreeSet::from(["overlapping-geometries"]));
     let found = finding(&scene, "overlapping-geometries");
     assert_eq!(found.worst, vec![1]);
-    assert!(found.advice.contains("merge geometries"), "{}", found.advice);
+    let advice = found.advice;
+    assert!(advice.contains("merge geometries"), "{advice}");
 }
 
 /// Overlapping placements of one geometry are found too, but merging them would copy
@@ -200,8 +201,9 @@ fn overlapping_instances_of_one_geometry_are_not_advised_to_merge() {
     });
     let found = finding(&scene, "overlapping-geometries");
     assert_eq!(found.worst, vec![1]);
-    assert!(found.advice.contains("instanced geometry"), "{}", found.advice);
-    assert!(!found.advice.contains("merge geometries"), "{}", found.advice);
+    let advice = found.advice;
+    assert!(advice.contains("instanced geometry"), "{advice}");
+    assert!(!advice.contains("merge geometries"), "{advice}");
 }
 
 proptest! {
