@@ -137,8 +137,8 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
     pair_sah_with(mesh, has_avx512_conflict())
 }
 
-/// [`pair_sah`], with the twin search's AVX-512 kernel when `avx512` (which the CPU
-/// must have) or the scalar one (the reference that tests hold the kernel to).
+/// [`pair_sah`], with the twin search's AVX-512 kernels when `avx512` (which the CPU
+/// must have) or its scalar loops (the reference that tests hold the kernels to).
 pub(super) fn pair_sah_with(mesh: &TriMesh, avx512: bool) -> Pairing {
     if mesh.positions.len() > MAX_VERTICES || 3 * mesh.triangle_count() > u32::MAX as usize {
         return pair_sah_reference(mesh);
@@ -241,9 +241,9 @@ impl EdgeKeys for VertexKeys<'_> {
     /// [`VertexKeys::side_keys`] and the comparisons of [`side_ranks`] on their keys
     /// (box area bits, then smaller vertex, then larger) done lane-wise, with the same
     /// floating-point operations in the same order, so the bytes are the scalar
-    /// pass's. Only the block counts are added up one by one. The scalar pass spends
-    /// some 50 instructions on a triangle's branches, checks and 128-bit keys; the
-    /// dragon's pass takes 16 ms on one core that way.
+    /// pass's. Only the block counts are added up one by one. On the dragon, one core:
+    /// 7 ms, where the scalar pass (branches, checks and 128-bit keys per triangle)
+    /// takes 16.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512cd")]
     unsafe fn rank_and_count_avx512(
@@ -422,8 +422,8 @@ impl HalfEdge for VertexHalfEdge {
     /// second half-edge of an edge of two; its twin's lane is the bit's index. Both
     /// ends of each such couple are scattered into `across`, when the two run opposite
     /// ways ([`EdgeKeys::may_couple`]). The scalar window compares every lane with
-    /// every other (16 × run length compares) and writes every lane; this is a dozen
-    /// instructions per run, and the dragon's 437k runs (6 half-edges long on average)
+    /// every other (16 × run length compares) and writes every lane; this is about
+    /// twenty instructions a run, and the dragon's 437k runs (6 half-edges long on average)
     /// take 12 ms, not 23 (one core).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512cd")]

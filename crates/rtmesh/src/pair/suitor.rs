@@ -16,15 +16,15 @@
 //! whose couples are listed apart with their keys ([`ExtraCouple`]). Twins are found
 //! block by block in cache ([`Couples::link`]); the pairing method says how its
 //! half-edges are keyed and blocked ([`EdgeKeys`]: by smaller vertex for indexed
-//! input, by cell of space and key hash for position keys). The search of a run is the
-//! hot loop; for indexed half-edges it is also hand-written in AVX-512 (one
-//! conflict-detection instruction finds a run's twins), taken where the CPU has it
-//! (detected at run time), and the scalar window is the reference the tests hold it to.
-//! When no edge has more than two half-edges, a triangle's whole matching state is one
-//! byte: the order of its sides' keys and the side its suitor is across
-//! ([`match_by_side_ranks`]), and on
-//! several threads the same matching is found in rounds ([`match_in_rounds`]); else
-//! keys are `u128`s from the pairing method, computed when a triangle proposes.
+//! input, by cell of space and key hash for position keys). Its hot loops, ranking the
+//! triangles' sides and searching a run, take a pairing method's own AVX-512 kernels
+//! where it has them and the CPU too ([`EdgeKeys::rank_and_count_avx512`],
+//! [`HalfEdge::couple_pairs_avx512`]); the scalar loops are the reference the tests
+//! hold them to. When no edge has more than two half-edges, a triangle's whole
+//! matching state is one byte: the order of its sides' keys and the side its suitor is
+//! across ([`match_by_side_ranks`]), and on several threads the same matching is found
+//! in rounds ([`match_in_rounds`]); else keys are `u128`s from the pairing method,
+//! computed when a triangle proposes.
 //! Cost: O(T) time (O(E · max degree) proposals at worst, and O(L log L) for a run of
 //! L half-edges past the window); 12 or 16 bytes per half-edge for the blocks, 4 for
 //! the twins and 1 per triangle for the state.
@@ -144,8 +144,9 @@ impl Couples {
     /// time, in cache: a counting sort on the run gathers each run's half-edges
     /// (ascending ids), among which every edge's are found by comparing edges. Parts of
     /// the triangles, then blocks, on the pool's threads. When `avx512` (which the CPU
-    /// must have: [`has_avx512_conflict`]), runs are searched in AVX-512 registers by
-    /// the half-edges' [`HalfEdge::couple_pairs_avx512`], where they have one.
+    /// must have: [`has_avx512_conflict`]), the first pass and the runs' search take the
+    /// kernels [`EdgeKeys::rank_and_count_avx512`] and
+    /// [`HalfEdge::couple_pairs_avx512`], where the keys have them.
     pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K, avx512: bool) -> Self {
         let n = triangle_count;
         let blocks = keys.blocks().max(1);
@@ -157,10 +158,11 @@ impl Couples {
             .enumerate()
             .map(|(p, ranks)| {
                 let mut count = vec![0u32; blocks];
-                let done = match avx512 {
+                let done = if avx512 {
                     // SAFETY: `avx512` says the CPU has the features.
-                    true => unsafe { keys.rank_and_count_avx512(p * part_len, ranks, &mut count) },
-                    false => 0,
+                    unsafe { keys.rank_and_count_avx512(p * part_len, ranks, &mut count) }
+                } else {
+                    0
                 };
                 for (i, r) in ranks.iter_mut().enumerate().skip(done) {
                     let t = p * part_len + i;
@@ -254,7 +256,8 @@ impl Couples {
 }
 
 /// Whether this CPU has AVX-512 F and CD (conflict detection), for
-/// [`HalfEdge::couple_pairs_avx512`] (detected once, then a cached flag).
+/// [`EdgeKeys::rank_and_count_avx512`] and [`HalfEdge::couple_pairs_avx512`] (detected
+/// once, then a cached flag).
 pub(crate) fn has_avx512_conflict() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
