@@ -791,10 +791,7 @@ fn lint_pieces(g: usize, pieces: &Pieces, settings: &LintSettings, findings: &mu
 /// and rays would not traverse both.
 fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Finding>) {
     let pairs = overlapping_instances(scene);
-    let mut placements = vec![0usize; scene.meshes.len()];
-    for instance in &scene.instances {
-        placements[instance.mesh] += 1;
-    }
+    let placements = scene.placements();
     let instanced = |i: usize| placements[scene.instances[i].mesh] > 1;
     for mine in pairs.chunk_by(|p, q| p.0 == q.0) {
         let a = mine[0].0;

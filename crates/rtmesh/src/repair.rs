@@ -353,10 +353,7 @@ pub fn proposed_grouping(scene: &Scene, pieces: &[crate::lint::Pieces]) -> Optio
 /// one geometry per group, transforms baked in, placed with the identity. Returns
 /// the merged scene and map and the number of groups, or `None` when nothing merges.
 fn merge_overlapping(scene: &Scene, map: &RepairMap) -> Option<(Scene, RepairMap, usize)> {
-    let mut placements = vec![0usize; scene.meshes.len()];
-    for instance in &scene.instances {
-        placements[instance.mesh] += 1;
-    }
+    let placements = scene.placements();
     let n = scene.instances.len();
     let pairs = crate::lint::overlapping_instances(scene);
     // Union-find over instances.

@@ -190,6 +190,15 @@ impl Scene {
             .sum()
     }
 
+    /// How many instances place each mesh (0 for a mesh never placed).
+    pub fn placements(&self) -> Vec<usize> {
+        let mut placements = vec![0; self.meshes.len()];
+        for instance in &self.instances {
+            placements[instance.mesh] += 1;
+        }
+        placements
+    }
+
     /// Vertices in the world: every instance counts its mesh's vertices.
     pub fn instanced_vertex_count(&self) -> usize {
         self.instances
