@@ -21,17 +21,22 @@
 //! twins are the half-edges of one key in a run, and the Suitor algorithm (on several
 //! threads, the matching in rounds) finds the scan's matching. A block's triangles are
 //! near each other in space, and so, in a scanned mesh's order, in memory: the corner
-//! check of each couple is done there.
+//! check of each couple is done there, its reads prefetched as the block is sorted.
+//! The keys are computed 16 triangles at a time in AVX-512 where the CPU has it
+//! ([`Quantiser::keys_avx512`]; the scalar [`Quantiser::key`] is the reference).
 //! Cost: O(T) time; 12 bytes per half-edge for the keys, 16 for the blocks, 4 for the
 //! twins.
 
-use super::suitor::{match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
+#[cfg(target_arch = "x86_64")]
+use super::suitor::{edge_bbsa_avx512, load_triangles_avx512, MAX_GATHER_VERTICES};
+use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::geom::Aabb;
 use crate::mesh::{triangle_part_len, TriMesh};
 use crate::pages::vec_on_huge_pages;
 use glam::Vec3;
 use rayon::prelude::*;
+use std::mem::MaybeUninit;
 
 /// Bits per quantised key field.
 const FIELD_BITS: u32 = 24;
@@ -41,7 +46,13 @@ const FIELD_MAX: f32 = ((1u32 << FIELD_BITS) - 1) as f32;
 /// Greedy pairing keyed by position: vertex indices are used only to read corners.
 /// The same pairing as [`pair_sah_compressed_reference`].
 pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
-    let keys = PositionKeys::new(mesh);
+    pair_sah_compressed_with(mesh, has_avx512_conflict())
+}
+
+/// [`pair_sah_compressed`], with the AVX-512 keys when `avx512` (which the CPU must
+/// have) or the scalar keys (the reference that tests hold them to).
+pub(super) fn pair_sah_compressed_with(mesh: &TriMesh, avx512: bool) -> Pairing {
+    let keys = PositionKeys::new(mesh, avx512);
     // Position keys have no AVX-512 run search.
     let couples = Couples::link(mesh.triangle_count(), &keys, false);
     match_greedily(couples, |t| {
@@ -105,7 +116,7 @@ fn corners_opposite(mesh: &TriMesh, a: u32, b: u32) -> bool {
 
 /// The 96-bit key in three words, most significant first: [BBSA, x, y, z], 24 bits
 /// each.
-type EdgeKey = [u32; 3];
+pub(super) type EdgeKey = [u32; 3];
 
 /// The quantised midpoint `[x, y, z]` of a key (as [`Quantiser::key`] packs it).
 #[inline]
@@ -170,10 +181,68 @@ impl Quantiser {
         let bbsa = edge_bbsa(p, q).to_bits() >> (31 - FIELD_BITS);
         [bbsa << 8 | x >> 16, x << 16 | y >> 8, y << 24 | z]
     }
+
+    /// The keys of the sides of triangles `first..`, 16 at a time, into `sides` (three
+    /// per triangle; [`EXCLUDED_KEY`]s for a triangle that takes no part), as
+    /// [`Quantiser::key`] gives them: the same floating-point operations in the same
+    /// order, lane-wise, so the same bits. Returns how many triangles it keyed (a
+    /// multiple of 16; none past [`MAX_GATHER_VERTICES`] vertices).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512 F; `sides` holds the sides of triangles of `mesh` from
+    /// `first`.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    unsafe fn keys_avx512(
+        &self,
+        mesh: &TriMesh,
+        first: usize,
+        sides: &mut [MaybeUninit<EdgeKey>],
+    ) -> usize {
+        use std::arch::x86_64::*;
+        if mesh.positions.len() > MAX_GATHER_VERTICES {
+            return 0;
+        }
+        let done = sides.len() / 3 / 16 * 16;
+        let words = sides.as_mut_ptr() as *mut i32;
+        // Word w of side k of lane l's triangle: 9l + 3k + w words on.
+        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        let record = _mm512_mullo_epi32(lane, _mm512_set1_epi32(9));
+        let [min, scale] = [self.min, self.scale].map(|v| v.to_array().map(|c| _mm512_set1_ps(c)));
+        let (zero, half) = (_mm512_setzero_ps(), _mm512_set1_ps(0.5));
+        let field_max = _mm512_set1_ps(FIELD_MAX);
+        for g in (0..done).step_by(16) {
+            let (_, corner, active) = load_triangles_avx512(mesh, first + g);
+            for k in 0..3 {
+                let (p, q) = (&corner[k], &corner[(k + 1) % 3]);
+                // As `key`; `max` gives 0 for NaN, which lands on 0 all the same.
+                let [x, y, z] = [0, 1, 2].map(|axis| {
+                    let sum = _mm512_mul_ps(_mm512_add_ps(p[axis], q[axis]), half);
+                    let mid = _mm512_mul_ps(_mm512_sub_ps(sum, min[axis]), scale[axis]);
+                    let clamped = _mm512_min_ps(_mm512_max_ps(mid, zero), field_max);
+                    _mm512_cvttps_epi32(_mm512_add_ps(clamped, half))
+                });
+                let bbsa = _mm512_srli_epi32::<{ 31 - FIELD_BITS }>(_mm512_castps_si512(
+                    edge_bbsa_avx512(p, q),
+                ));
+                let key = [
+                    _mm512_or_si512(_mm512_slli_epi32::<8>(bbsa), _mm512_srli_epi32::<16>(x)),
+                    _mm512_or_si512(_mm512_slli_epi32::<16>(x), _mm512_srli_epi32::<8>(y)),
+                    _mm512_or_si512(_mm512_slli_epi32::<24>(y), z),
+                ];
+                for (w, word) in key.into_iter().enumerate() {
+                    let word = _mm512_mask_blend_epi32(active, _mm512_set1_epi32(-1), word);
+                    let at = _mm512_add_epi32(record, _mm512_set1_epi32((3 * k + w) as i32));
+                    _mm512_i32scatter_epi32::<4>(words.add(9 * g), at, word);
+                }
+            }
+        }
+        done
+    }
 }
 
 /// The key of every side of a triangle that takes no part (no real key: its BBSA
-/// field would be a NaN's).
+/// field would be a NaN's). The AVX-512 keys write it as words of -1.
 const EXCLUDED_KEY: EdgeKey = [u32::MAX; 3];
 
 /// Half-edges per block of the twin search, roughly: a cell of space.
@@ -181,17 +250,19 @@ const BLOCK_HALF_EDGES: usize = 1 << 11;
 
 /// The twin search of position-only input: blocks by the cell of space the edge's
 /// midpoint is in, runs within a block by a hash of the key.
-struct PositionKeys<'m> {
+pub(super) struct PositionKeys<'m> {
     mesh: &'m TriMesh,
     /// The key of half-edge `3t + k`, [`EXCLUDED_KEY`] for a triangle that takes no
     /// part.
-    keys: Vec<EdgeKey>,
+    pub(super) keys: Vec<EdgeKey>,
     /// Cells per axis of the block grid, log2.
     cell_bits: u32,
 }
 
 impl<'m> PositionKeys<'m> {
-    fn new(mesh: &'m TriMesh) -> Self {
+    /// The keys of `mesh`'s half-edges, with [`Quantiser::keys_avx512`] when `avx512`
+    /// (which the CPU must have).
+    pub(super) fn new(mesh: &'m TriMesh, avx512: bool) -> Self {
         let quantiser = Quantiser::new(mesh);
         let active = ActiveTriangles::new(mesh);
         let n = mesh.triangle_count();
@@ -202,7 +273,13 @@ impl<'m> PositionKeys<'m> {
             .par_chunks_mut(3 * part_len)
             .enumerate()
             .for_each(|(p, part)| {
-                for (i, sides) in part.chunks_exact_mut(3).enumerate() {
+                let done = if avx512 {
+                    // SAFETY: `avx512` says the CPU has the features.
+                    unsafe { quantiser.keys_avx512(mesh, p * part_len, part) }
+                } else {
+                    0
+                };
+                for (i, sides) in part.chunks_exact_mut(3).enumerate().skip(done) {
                     let t = p * part_len + i;
                     let triangle_keys = if active.get(t) {
                         let c = mesh.corners(t);
@@ -279,6 +356,22 @@ impl EdgeKeys for PositionKeys<'_> {
         couple_key(h.key, rank)
     }
 
+    /// The triangle at stage 0, its corners at stage 1 (the triangle is in cache by
+    /// then): the block's corner checks then find them there, where their misses were
+    /// the twin search's largest cost (on the dragon, one core: 85 ms, not 100).
+    #[inline]
+    fn prefetch_couple(&self, h: &PositionHalfEdge, stage: u32) {
+        let t = (h.id / 3) as usize;
+        if stage == 0 {
+            crate::prefetch(&self.mesh.triangles[t]);
+        } else {
+            let k = (h.id % 3) as usize;
+            let tri = self.mesh.triangles[t];
+            crate::prefetch(&self.mesh.positions[tri[k] as usize]);
+            crate::prefetch(&self.mesh.positions[tri[(k + 1) % 3] as usize]);
+        }
+    }
+
     /// Of different triangles, joining the same corners opposite ways.
     #[inline]
     fn may_couple(&self, a: &PositionHalfEdge, b: &PositionHalfEdge) -> bool {
@@ -288,7 +381,7 @@ impl EdgeKeys for PositionKeys<'_> {
 
 /// A half-edge and its key.
 #[derive(Clone, Copy, Default)]
-struct PositionHalfEdge {
+pub(super) struct PositionHalfEdge {
     key: EdgeKey,
     /// The half-edge (`3t + k`).
     id: u32,

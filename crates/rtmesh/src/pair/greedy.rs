@@ -26,6 +26,10 @@
 //! the CPU, the scalar code runs no faster). The scalar loops are the reference: tests
 //! run both and hold each to the published procedure.
 
+#[cfg(target_arch = "x86_64")]
+use super::suitor::{
+    edge_bbsa_avx512, load_records_of_three, load_triangles_avx512, MAX_GATHER_VERTICES,
+};
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{has_edges, SharedSlice, TriMesh};
@@ -255,50 +259,15 @@ impl EdgeKeys for VertexKeys<'_> {
         use super::suitor::{EXCLUDED, NO_SUITOR};
         use std::arch::x86_64::*;
         let mesh = self.mesh;
-        // Gathers take i32 offsets: 3v + axis must fit.
-        if mesh.positions.len() > (i32::MAX / 3) as usize {
+        if mesh.positions.len() > MAX_GATHER_VERTICES {
             return 0;
         }
         let done = ranks.len() / 16 * 16;
-        let triangles = mesh.triangles[first..first + done].as_ptr() as *const i32;
-        let coordinates = mesh.positions.as_ptr() as *const f32;
-        let vertex_count = _mm512_set1_epi32(mesh.positions.len() as i32);
-        let exponent = _mm512_set1_epi32(0x7f80_0000);
-        let magnitude = _mm512_set1_epi32(0x7fff_ffff);
         for g in (0..done).step_by(16) {
-            let v = load_records_of_three(triangles.add(3 * g), 16);
-            // `has_edges`.
-            let mut active = _mm512_cmplt_epu32_mask(v[0], vertex_count)
-                & _mm512_cmplt_epu32_mask(v[1], vertex_count)
-                & _mm512_cmplt_epu32_mask(v[2], vertex_count)
-                & _mm512_cmpneq_epi32_mask(v[0], v[1])
-                & _mm512_cmpneq_epi32_mask(v[1], v[2])
-                & _mm512_cmpneq_epi32_mask(v[2], v[0]);
-            // The corners, of active lanes only; finite ones.
-            let mut corner = [[_mm512_setzero_ps(); 3]; 3];
-            for (c, &vertex) in corner.iter_mut().zip(&v) {
-                let offset = _mm512_mullo_epi32(vertex, _mm512_set1_epi32(3));
-                for (axis, x) in c.iter_mut().enumerate() {
-                    let at = _mm512_add_epi32(offset, _mm512_set1_epi32(axis as i32));
-                    *x =
-                        _mm512_mask_i32gather_ps::<4>(_mm512_setzero_ps(), active, at, coordinates);
-                }
-            }
-            for x in corner.iter().flatten() {
-                let bits = _mm512_and_si512(_mm512_castps_si512(*x), exponent);
-                active = _mm512_mask_cmpneq_epi32_mask(active, bits, exponent);
-            }
+            let (v, corner, active) = load_triangles_avx512(mesh, first + g);
             // Side k's key, as `side_keys`: box area bits, smaller and larger vertex.
             let key = |k: usize| {
-                let (p, q) = (&corner[k], &corner[(k + 1) % 3]);
-                let d = [0, 1, 2].map(|axis| {
-                    let difference = _mm512_castps_si512(_mm512_sub_ps(q[axis], p[axis]));
-                    _mm512_castsi512_ps(_mm512_and_si512(difference, magnitude))
-                });
-                let bbsa = _mm512_add_ps(
-                    _mm512_add_ps(_mm512_mul_ps(d[0], d[1]), _mm512_mul_ps(d[1], d[2])),
-                    _mm512_mul_ps(d[2], d[0]),
-                );
+                let bbsa = edge_bbsa_avx512(&corner[k], &corner[(k + 1) % 3]);
                 let (a, b) = (v[k], v[(k + 1) % 3]);
                 [
                     _mm512_castps_si512(bbsa),
@@ -342,39 +311,6 @@ impl EdgeKeys for VertexKeys<'_> {
         }
         done
     }
-}
-
-/// The three words of each of `count` (at most 16) records of three 32-bit words at
-/// `base`, the `w`-th word of record `i` in lane `i` of vector `w` (0 in lanes from
-/// `count` on). Up to three masked loads: nothing past the records is read.
-///
-/// # Safety
-/// The CPU has AVX-512 F; the records are readable.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn load_records_of_three(base: *const i32, count: usize) -> [std::arch::x86_64::__m512i; 3] {
-    use std::arch::x86_64::*;
-    debug_assert!(count <= 16);
-    let words = 3 * count as u32;
-    let word_mask = |from: u32| ((1u64 << (words.clamp(from, from + 16) - from)) - 1) as __mmask16;
-    let v0 = _mm512_maskz_loadu_epi32(word_mask(0), base);
-    let v1 = _mm512_maskz_loadu_epi32(word_mask(16), base.add(16));
-    let v2 = _mm512_maskz_loadu_epi32(word_mask(32), base.add(32));
-    let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    [0, 1, 2].map(|w| {
-        let index = _mm512_add_epi32(
-            _mm512_mullo_epi32(lane, _mm512_set1_epi32(3)),
-            _mm512_set1_epi32(w),
-        );
-        let in_v0_v1 = _mm512_permutex2var_epi32(v0, index, v1);
-        let in_v2 = _mm512_permutexvar_epi32(index, v2);
-        _mm512_mask_blend_epi32(
-            _mm512_cmpge_epi32_mask(index, _mm512_set1_epi32(32)),
-            in_v0_v1,
-            in_v2,
-        )
-    })
 }
 
 /// A half-edge on its way to its smaller vertex's run (three words in this order, which

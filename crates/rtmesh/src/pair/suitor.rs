@@ -101,6 +101,11 @@ pub(super) trait EdgeKeys: Sync {
     fn extra_key(&self, h: &Self::HalfEdge, rank: u32) -> u128;
     /// Whether `a` and `b`, two half-edges on one edge, may be a couple.
     fn may_couple(&self, a: &Self::HalfEdge, b: &Self::HalfEdge) -> bool;
+    /// Prefetch what [`EdgeKeys::may_couple`] will read of `h`, where that is not in the
+    /// half-edge: [`Couples::link`] calls stage 0 as it counts a block's runs, and
+    /// stage 1 as it sorts the block, before it searches the runs. None by default.
+    #[inline]
+    fn prefetch_couple(&self, _h: &Self::HalfEdge, _stage: u32) {}
     /// The first pass of [`Couples::link`] in AVX-512, for keys that have such a
     /// kernel, over a prefix of the triangles from `first`: their bytes of `ranks` as
     /// the scalar pass writes them (`ranks` starts as [`EXCLUDED`]), and their
@@ -218,6 +223,7 @@ impl Couples {
                     start.clear();
                     start.resize(runs + 1, 0u32);
                     for h in block {
+                        keys.prefetch_couple(h, 0);
                         start[keys.run(h, runs) + 1] += 1;
                     }
                     for r in 0..runs {
@@ -226,6 +232,7 @@ impl Couples {
                     sorted.clear();
                     sorted.resize(block.len(), K::HalfEdge::default());
                     for h in block {
+                        keys.prefetch_couple(h, 1);
                         let c = &mut start[keys.run(h, runs)];
                         sorted[*c as usize] = *h;
                         *c += 1;
@@ -268,6 +275,118 @@ pub(crate) fn has_avx512_conflict() -> bool {
     {
         false
     }
+}
+
+/// The three words of each of `count` (at most 16) records of three 32-bit words at
+/// `base`, the `w`-th word of record `i` in lane `i` of vector `w` (0 in lanes from
+/// `count` on). Up to three masked loads: nothing past the records is read.
+///
+/// # Safety
+/// The CPU has AVX-512 F; the records are readable.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn load_records_of_three(
+    base: *const i32,
+    count: usize,
+) -> [std::arch::x86_64::__m512i; 3] {
+    use std::arch::x86_64::*;
+    debug_assert!(count <= 16);
+    let words = 3 * count as u32;
+    let word_mask = |from: u32| ((1u64 << (words.clamp(from, from + 16) - from)) - 1) as __mmask16;
+    let v0 = _mm512_maskz_loadu_epi32(word_mask(0), base);
+    let v1 = _mm512_maskz_loadu_epi32(word_mask(16), base.add(16));
+    let v2 = _mm512_maskz_loadu_epi32(word_mask(32), base.add(32));
+    let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    [0, 1, 2].map(|w| {
+        let index = _mm512_add_epi32(
+            _mm512_mullo_epi32(lane, _mm512_set1_epi32(3)),
+            _mm512_set1_epi32(w),
+        );
+        let in_v0_v1 = _mm512_permutex2var_epi32(v0, index, v1);
+        let in_v2 = _mm512_permutexvar_epi32(index, v2);
+        _mm512_mask_blend_epi32(
+            _mm512_cmpge_epi32_mask(index, _mm512_set1_epi32(32)),
+            in_v0_v1,
+            in_v2,
+        )
+    })
+}
+
+/// The most vertices [`load_triangles_avx512`] takes: gathers take i32 offsets, and
+/// `3v + axis` must fit.
+pub(super) const MAX_GATHER_VERTICES: usize = (i32::MAX / 3) as usize;
+
+/// Triangles `first..first + 16` of `mesh` in AVX-512 lanes: their vertex indices
+/// (`[corner]`), their corners (`[corner][axis]`, 0 in lanes that take no part), and
+/// the lanes that take part, as `ActiveTriangles::get` says: indices in range, three
+/// distinct vertices ([`has_edges`](crate::mesh::has_edges)), finite corners.
+///
+/// # Safety
+/// The CPU has AVX-512 F; the mesh has at most [`MAX_GATHER_VERTICES`] vertices.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn load_triangles_avx512(
+    mesh: &crate::mesh::TriMesh,
+    first: usize,
+) -> (
+    [std::arch::x86_64::__m512i; 3],
+    [[std::arch::x86_64::__m512; 3]; 3],
+    std::arch::x86_64::__mmask16,
+) {
+    use std::arch::x86_64::*;
+    debug_assert!(mesh.positions.len() <= MAX_GATHER_VERTICES);
+    let triangles = mesh.triangles[first..first + 16].as_ptr() as *const i32;
+    let coordinates = mesh.positions.as_ptr() as *const f32;
+    let vertex_count = _mm512_set1_epi32(mesh.positions.len() as i32);
+    let v = load_records_of_three(triangles, 16);
+    let mut active = _mm512_cmplt_epu32_mask(v[0], vertex_count)
+        & _mm512_cmplt_epu32_mask(v[1], vertex_count)
+        & _mm512_cmplt_epu32_mask(v[2], vertex_count)
+        & _mm512_cmpneq_epi32_mask(v[0], v[1])
+        & _mm512_cmpneq_epi32_mask(v[1], v[2])
+        & _mm512_cmpneq_epi32_mask(v[2], v[0]);
+    // The corners, of lanes with valid indices only; finite ones.
+    let mut corner = [[_mm512_setzero_ps(); 3]; 3];
+    for (c, &vertex) in corner.iter_mut().zip(&v) {
+        let offset = _mm512_mullo_epi32(vertex, _mm512_set1_epi32(3));
+        for (axis, x) in c.iter_mut().enumerate() {
+            let at = _mm512_add_epi32(offset, _mm512_set1_epi32(axis as i32));
+            *x = _mm512_mask_i32gather_ps::<4>(_mm512_setzero_ps(), active, at, coordinates);
+        }
+    }
+    let exponent = _mm512_set1_epi32(0x7f80_0000);
+    for x in corner.iter().flatten() {
+        let bits = _mm512_and_si512(_mm512_castps_si512(*x), exponent);
+        active = _mm512_mask_cmpneq_epi32_mask(active, bits, exponent);
+    }
+    (v, corner, active)
+}
+
+/// [`edge_bbsa`](super::edge_bbsa) of the edges `p–q` in AVX-512 lanes
+/// (`[axis]`), with the same floating-point operations in the same order, so the same
+/// bits.
+///
+/// # Safety
+/// The CPU has AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn edge_bbsa_avx512(
+    p: &[std::arch::x86_64::__m512; 3],
+    q: &[std::arch::x86_64::__m512; 3],
+) -> std::arch::x86_64::__m512 {
+    use std::arch::x86_64::*;
+    let magnitude = _mm512_set1_epi32(0x7fff_ffff);
+    let d = [0, 1, 2].map(|axis| {
+        let difference = _mm512_castps_si512(_mm512_sub_ps(q[axis], p[axis]));
+        _mm512_castsi512_ps(_mm512_and_si512(difference, magnitude))
+    });
+    _mm512_add_ps(
+        _mm512_add_ps(_mm512_mul_ps(d[0], d[1]), _mm512_mul_ps(d[1], d[2])),
+        _mm512_mul_ps(d[2], d[0]),
+    )
 }
 
 /// Couple the runs of a block sorted by run, run `r` ending at `ends[r]`

@@ -167,9 +167,9 @@ fn random_mesh() -> impl Strategy<Value = TriMesh> {
         })
 }
 
-/// The twin searches of [`pair_sah_with`] that this CPU runs: the scalar one, and the
-/// AVX-512 one where it has AVX-512 F and CD.
-fn twin_searches() -> Vec<bool> {
+/// The kernels of [`pair_sah_with`] and [`compressed::pair_sah_compressed_with`] that
+/// this CPU runs: the scalar ones, and the AVX-512 ones where it has AVX-512 F and CD.
+fn kernel_choices() -> Vec<bool> {
     let mut searches = vec![false];
     if has_avx512_conflict() {
         searches.push(true);
@@ -194,7 +194,7 @@ proptest! {
     fn fast_greedy_equals_the_published_procedure(mesh in random_mesh()) {
         let reference = pair_sah_reference(&mesh);
         for threads in [1, 2] {
-            for avx512 in twin_searches() {
+            for avx512 in kernel_choices() {
                 let fast = pool(threads).install(|| pair_sah_with(&mesh, avx512));
                 prop_assert_eq!(&fast, &reference, "{} threads, AVX-512 {}", threads, avx512);
                 assert_valid(&mesh, &fast);
@@ -206,9 +206,39 @@ proptest! {
     fn fast_compressed_equals_the_published_procedure(mesh in random_mesh()) {
         let reference = compressed::pair_sah_compressed_reference(&mesh);
         for threads in [1, 2] {
-            let fast = pool(threads).install(|| compressed::pair_sah_compressed(&mesh));
-            prop_assert_eq!(&fast, &reference, "{} threads", threads);
+            for avx512 in kernel_choices() {
+                let fast = pool(threads)
+                    .install(|| compressed::pair_sah_compressed_with(&mesh, avx512));
+                prop_assert_eq!(&fast, &reference, "{} threads, AVX-512 {}", threads, avx512);
+            }
         }
+    }
+
+    /// Bit for bit, on corners of every kind of float: huge, tiny, subnormal, signed
+    /// zeros, infinities and NaNs (sums and box areas that overflow), and out-of-range
+    /// or repeated indices.
+    #[test]
+    fn avx512_position_keys_are_the_scalar_keys(
+        coordinates in proptest::collection::vec(
+            prop_oneof![
+                4 => -100.0f32..100.0,
+                1 => any::<f32>(),
+                1 => prop::sample::select(vec![
+                    0.0, -0.0, f32::MAX, f32::MIN, f32::MIN_POSITIVE, 1e-40, f32::INFINITY,
+                    f32::NAN,
+                ]),
+            ],
+            3 * 12,
+        ),
+        triangles in proptest::collection::vec(prop::array::uniform3(0u32..13), 0..70),
+    ) {
+        let positions = coordinates.chunks(3).map(Vec3::from_slice).collect();
+        let mesh = TriMesh::new(positions, triangles);
+        if !kernel_choices().contains(&true) {
+            return Ok(());
+        }
+        let scalar = compressed::PositionKeys::new(&mesh, false).keys;
+        prop_assert_eq!(compressed::PositionKeys::new(&mesh, true).keys, scalar);
     }
 
     #[test]
@@ -444,18 +474,18 @@ fn assert_fast_routes_pair_like_the_references(
     let by_position = compressed::pair_sah_compressed_reference(mesh);
     for &threads in thread_counts {
         let pool = pool(threads);
-        for avx512 in twin_searches() {
+        for avx512 in kernel_choices() {
             assert_eq!(
                 pool.install(|| pair_sah_with(mesh, avx512)),
                 reference,
                 "{what}, {threads} threads, AVX-512 {avx512}"
             );
+            assert_eq!(
+                pool.install(|| compressed::pair_sah_compressed_with(mesh, avx512)),
+                by_position,
+                "{what}, {threads} threads, by position, AVX-512 {avx512}"
+            );
         }
-        assert_eq!(
-            pool.install(|| compressed::pair_sah_compressed(mesh)),
-            by_position,
-            "{what}, {threads} threads, by position"
-        );
     }
     reference
 }
