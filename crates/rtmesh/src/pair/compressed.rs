@@ -23,7 +23,7 @@
 //! near each other in space, and so, in a scanned mesh's order, in memory: the corner
 //! check of each couple is done there, its reads prefetched as the block is sorted.
 //! The keys are computed 16 triangles at a time in AVX-512 where the CPU has it
-//! ([`Quantiser::keys_avx512`]; the scalar [`Quantiser::key`] is the reference).
+//! (`Quantiser::keys_avx512`; the scalar `Quantiser::key` is the reference).
 //! Cost: O(T) time; 12 bytes per half-edge for the keys, 16 for the blocks, 4 for the
 //! twins.
 
