@@ -22,8 +22,9 @@
 //! threads, the matching in rounds) finds the scan's matching. A block's triangles are
 //! near each other in space, and so, in a scanned mesh's order, in memory: the corner
 //! check of each couple is done there, its reads prefetched as the block is sorted.
-//! The keys are computed 16 triangles at a time in AVX-512 where the CPU has it
-//! (`Quantiser::keys_avx512`; the scalar `Quantiser::key` is the reference).
+//! Where the CPU has AVX-512, the keys are computed 16 triangles at a time
+//! (`Quantiser::keys_avx512`) and a run's twins are found in one vector (the
+//! `couple_pairs_avx512` of `PositionKeys`); the scalar loops are the reference.
 //! Cost: O(T) time; 12 bytes per half-edge for the keys, 16 for the blocks, 4 for the
 //! twins.
 
@@ -32,7 +33,7 @@ use super::suitor::{edge_bbsa_avx512, load_triangles_avx512, MAX_GATHER_VERTICES
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::geom::Aabb;
-use crate::mesh::{triangle_part_len, TriMesh};
+use crate::mesh::{triangle_part_len, SharedSlice, TriMesh};
 use crate::pages::vec_on_huge_pages;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -53,8 +54,7 @@ pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
 /// have) or the scalar keys (the reference that tests hold them to).
 pub(super) fn pair_sah_compressed_with(mesh: &TriMesh, avx512: bool) -> Pairing {
     let keys = PositionKeys::new(mesh, avx512);
-    // Position keys have no AVX-512 run search.
-    let couples = Couples::link(mesh.triangle_count(), &keys, false);
+    let couples = Couples::link(mesh.triangle_count(), &keys, avx512);
     match_greedily(couples, |t| {
         let sides = &keys.keys[3 * t..3 * t + 3];
         [0, 1, 2].map(|k| couple_key(sides[k], 0))
@@ -104,14 +104,15 @@ pub fn pair_sah_compressed_reference(mesh: &TriMesh) -> Pairing {
 }
 
 /// Whether half-edges `a` and `b` join the same two corner positions, opposite ways.
-/// (Half-edge `h` of triangle `t` runs from corner `h % 3` to the next.)
+/// (Half-edge `h` of triangle `t` runs from corner `h % 3` to the next.) Corners that
+/// are one vertex are one position, read only where they are not.
 #[inline]
 fn corners_opposite(mesh: &TriMesh, a: u32, b: u32) -> bool {
-    let corner = |h: u32, offset: u32| {
-        let t = (h / 3) as usize;
-        mesh.positions[mesh.triangles[t][((h + offset) % 3) as usize] as usize]
-    };
-    corner(a, 0) == corner(b, 1) && corner(a, 1) == corner(b, 0)
+    let vertex =
+        |h: u32, offset: u32| mesh.triangles[(h / 3) as usize][((h + offset) % 3) as usize];
+    let [a0, a1, b0, b1] = [vertex(a, 0), vertex(a, 1), vertex(b, 0), vertex(b, 1)];
+    let same = |u: u32, v: u32| u == v || mesh.positions[u as usize] == mesh.positions[v as usize];
+    same(a0, b1) && same(a1, b0)
 }
 
 /// The 96-bit key in three words, most significant first: [BBSA, x, y, z], 24 bits
@@ -245,6 +246,10 @@ impl Quantiser {
 /// field would be a NaN's). The AVX-512 keys write it as words of -1.
 const EXCLUDED_KEY: EdgeKey = [u32::MAX; 3];
 
+/// The run kernel's 32-bit signature of key `[x, y, z]` is `a·x ⊕ b·y ⊕ z` (wrapping)
+/// with these `[a, b]`.
+const SIGNATURE_FACTORS: [u32; 2] = [0x9E37_79B1, 0x85EB_CA77];
+
 /// Half-edges per block of the twin search, roughly: a cell of space.
 const BLOCK_HALF_EDGES: usize = 1 << 11;
 
@@ -257,6 +262,12 @@ pub(super) struct PositionKeys<'m> {
     pub(super) keys: Vec<EdgeKey>,
     /// Cells per axis of the block grid, log2.
     cell_bits: u32,
+    /// Whether the runs are searched with the AVX-512 kernel.
+    avx512: bool,
+    /// Whether the corners are read to check couples: vertices not shared (more
+    /// vertices than triangles, as in a triangle soup), so twins' corners are
+    /// different vertices, whose positions [`corners_opposite`] compares.
+    corners_read: bool,
 }
 
 impl<'m> PositionKeys<'m> {
@@ -300,6 +311,8 @@ impl<'m> PositionKeys<'m> {
             mesh,
             keys,
             cell_bits,
+            avx512,
+            corners_read: mesh.positions.len() > n,
         }
     }
 
@@ -318,12 +331,13 @@ impl EdgeKeys for PositionKeys<'_> {
         1 << (3 * self.cell_bits)
     }
 
-    /// A power of two, a run for every 2–4 half-edges: runs are compared in an 8-wide
-    /// window, and fewer runs cost less than the narrower window they would allow
-    /// (side by side on the dragon: one run per 1–2 half-edges in a 4-wide window
-    /// took 6–8% longer in all).
+    /// A power of two, a run for every 2–4 half-edges in the scalar search's 8-wide
+    /// window, 4–8 in the kernel's 16 lanes: fewer runs cost less than the narrower
+    /// window they would allow. Side by side on the dragon: one run per 1–2 half-edges
+    /// in a 4-wide window took 6–8% longer in all; in 16 lanes, the runs' search took
+    /// 41 ms with one run per 2–4, 27 with one per 4–8 and 33 with one per 8–16.
     fn runs(&self, _: usize, len: usize) -> usize {
-        (len / 4).next_power_of_two()
+        (len / if self.avx512 { 8 } else { 4 }).next_power_of_two()
     }
 
     #[inline]
@@ -356,15 +370,86 @@ impl EdgeKeys for PositionKeys<'_> {
         couple_key(h.key, rank)
     }
 
+    /// The run in one vector of 16 lanes, as the indexed kernel has it, on a 32-bit
+    /// signature of each key (`vpconflictd` compares 32-bit lanes): it gives each lane
+    /// the lanes before it with the same signature. A lane with two or more, or one
+    /// whose key differs from its one earlier lane's (signatures collide), declines:
+    /// `couple_run` takes the run. Each couple left has its corners checked
+    /// ([`EdgeKeys::may_couple`]) and both ends written, one by one.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512cd")]
+    unsafe fn couple_pairs_avx512(
+        &self,
+        run: &[PositionHalfEdge],
+        destination: &SharedSlice<u32>,
+    ) -> Option<bool> {
+        use std::arch::x86_64::*;
+        debug_assert!(run.len() <= 16);
+        // Four masked loads of the records' words (nothing past the run is read), and
+        // word w of record i to lane i of vector w.
+        let words = 4 * run.len() as u32;
+        let word_mask =
+            |from: u32| ((1u64 << (words.clamp(from, from + 16) - from)) - 1) as __mmask16;
+        let base = run.as_ptr() as *const i32;
+        let v = [0, 16, 32, 48]
+            .map(|from| _mm512_maskz_loadu_epi32(word_mask(from), base.add(from as usize)));
+        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        let upper = _mm512_cmpge_epi32_mask(lane, _mm512_set1_epi32(8));
+        let key = [0, 1, 2].map(|w| {
+            let index = _mm512_add_epi32(_mm512_slli_epi32::<2>(lane), _mm512_set1_epi32(w));
+            _mm512_mask_blend_epi32(
+                upper,
+                _mm512_permutex2var_epi32(v[0], index, v[1]),
+                _mm512_permutex2var_epi32(v[2], index, v[3]),
+            )
+        });
+        let [a, b] = SIGNATURE_FACTORS.map(|f| _mm512_set1_epi32(f as i32));
+        let signature = _mm512_xor_si512(
+            _mm512_xor_si512(_mm512_mullo_epi32(key[0], a), _mm512_mullo_epi32(key[1], b)),
+            key[2],
+        );
+        // Spare lanes come after the run's, so no run lane counts them.
+        let lane_mask = ((1u32 << run.len()) - 1) as __mmask16;
+        let earlier = _mm512_conflict_epi32(signature);
+        let lowest = _mm512_and_epi32(earlier, _mm512_sub_epi32(_mm512_setzero_si512(), earlier));
+        if _mm512_mask_cmpgt_epu32_mask(lane_mask, earlier, lowest) != 0 {
+            return Some(false);
+        }
+        let second = _mm512_mask_test_epi32_mask(lane_mask, earlier, earlier);
+        let twin_lane = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(earlier));
+        let same = key.map(|w| {
+            _mm512_mask_cmpeq_epi32_mask(second, w, _mm512_permutexvar_epi32(twin_lane, w))
+        });
+        if same[0] & same[1] & same[2] != second {
+            return Some(false);
+        }
+        let mut twin_of = [0u32; 16];
+        _mm512_storeu_si512(twin_of.as_mut_ptr() as *mut __m512i, twin_lane);
+        let mut couples = second as u32;
+        while couples != 0 {
+            let l = couples.trailing_zeros() as usize;
+            couples &= couples - 1;
+            let (e, twin) = (run[l], run[twin_of[l] as usize]);
+            if self.may_couple(&twin, &e) {
+                destination.0.add(e.id as usize).write(twin.id + 1);
+                destination.0.add(twin.id as usize).write(e.id + 1);
+            }
+        }
+        Some(true)
+    }
+
     /// The triangle at stage 0, its corners at stage 1 (the triangle is in cache by
-    /// then): the block's corner checks then find them there, where their misses were
-    /// the twin search's largest cost (on the dragon, one core: 85 ms, not 100).
+    /// then) when they will be read: the block's corner checks then find them there,
+    /// where their misses were the twin search's largest cost. On the dragon, one
+    /// core, the runs' search took 34 ms as a soup (63 without prefetches) and, welded,
+    /// 27 with the triangles prefetched (35 without; prefetching the corners too cost
+    /// 6 ms more than it saved).
     #[inline]
     fn prefetch_couple(&self, h: &PositionHalfEdge, stage: u32) {
         let t = (h.id / 3) as usize;
         if stage == 0 {
             crate::prefetch(&self.mesh.triangles[t]);
-        } else {
+        } else if self.corners_read {
             let k = (h.id % 3) as usize;
             let tri = self.mesh.triangles[t];
             crate::prefetch(&self.mesh.positions[tri[k] as usize]);
@@ -400,5 +485,55 @@ impl HalfEdge for PositionHalfEdge {
     #[inline]
     fn id(&self) -> u32 {
         self.id
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::suitor::NO_COUPLE;
+    use super::*;
+
+    /// The run kernel couples two half-edges only when their keys are equal, not just
+    /// their signatures: two of the quad's shared edge, keyed apart with one signature,
+    /// make it decline (leaving the run to the exact search) and write nothing.
+    #[test]
+    fn run_kernel_tells_keys_with_one_signature_apart() {
+        if !has_avx512_conflict() {
+            return;
+        }
+        let quad = TriMesh::new(
+            vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE],
+            vec![[0, 1, 2], [2, 1, 3]],
+        );
+        let keys = PositionKeys::new(&quad, true);
+        // Side 1 of triangle 0 (1 → 2) and side 0 of triangle 1 (2 → 1).
+        let [first, second] = [1, 3].map(|id| PositionHalfEdge {
+            key: keys.keys[id],
+            id: id as u32,
+        });
+        assert_eq!(first.key, second.key);
+        let [a, b] = SIGNATURE_FACTORS;
+        let signature = |[x, y, z]: EdgeKey| a.wrapping_mul(x) ^ b.wrapping_mul(y) ^ z;
+        let [x, y, _] = first.key;
+        let mut twin_in_signature = PositionHalfEdge {
+            key: [x + 1, y, 0],
+            ..second
+        };
+        twin_in_signature.key[2] = signature(first.key) ^ signature(twin_in_signature.key);
+        assert_eq!(signature(twin_in_signature.key), signature(first.key));
+        let search = |run: &[PositionHalfEdge]| {
+            let mut across = vec![NO_COUPLE; 6];
+            let destination = SharedSlice(across.as_mut_ptr());
+            // SAFETY: the CPU has the features; `across` is this thread's.
+            let coupled = unsafe { keys.couple_pairs_avx512(run, &destination) };
+            (coupled, across)
+        };
+        let mut expected = vec![NO_COUPLE; 6];
+        (expected[1], expected[3]) = (3 + 1, 1 + 1);
+        assert_eq!(search(&[first, second]), (Some(true), expected));
+        assert_eq!(
+            search(&[first, twin_in_signature]),
+            (Some(false), vec![NO_COUPLE; 6])
+        );
     }
 }

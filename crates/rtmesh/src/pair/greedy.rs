@@ -241,6 +241,54 @@ impl EdgeKeys for VertexKeys<'_> {
         (a.other ^ b.other) & VertexHalfEdge::FORWARD != 0
     }
 
+    /// The run in one vector of 16 lanes: `vpconflictd` gives each lane the lanes
+    /// before it with the same edge. A lane with two or more has an edge of three or
+    /// more half-edges (declined: `couple_run` takes the run). A lane with one is the
+    /// second half-edge of an edge of two; its twin's lane is the bit's index. Both
+    /// ends of each such couple are scattered into `across`, when the two run opposite
+    /// ways ([`EdgeKeys::may_couple`]). The scalar window compares every lane with
+    /// every other (16 × run length compares) and writes every lane; this is about
+    /// twenty instructions a run, and the dragon's 437k runs (6 half-edges long on average)
+    /// take 12 ms, not 23 (one core).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512cd")]
+    unsafe fn couple_pairs_avx512(
+        &self,
+        run: &[VertexHalfEdge],
+        destination: &SharedSlice<u32>,
+    ) -> Option<bool> {
+        use std::arch::x86_64::*;
+        debug_assert!(run.len() <= 16);
+        let lane_mask = ((1u32 << run.len()) - 1) as __mmask16;
+        let [_, other, id] = load_records_of_three(run.as_ptr() as *const i32, run.len());
+        // Spare lanes get an edge that no half-edge has.
+        let other = _mm512_mask_blend_epi32(
+            lane_mask,
+            _mm512_set1_epi32(VertexHalfEdge::NO_EDGE as i32),
+            other,
+        );
+        let edge = _mm512_and_epi32(other, _mm512_set1_epi32(VertexHalfEdge::NO_EDGE as i32));
+        let earlier = _mm512_conflict_epi32(edge);
+        let lowest = _mm512_and_epi32(earlier, _mm512_sub_epi32(_mm512_setzero_si512(), earlier));
+        if _mm512_mask_cmpgt_epu32_mask(lane_mask, earlier, lowest) != 0 {
+            return Some(false);
+        }
+        let second = _mm512_mask_test_epi32_mask(lane_mask, earlier, earlier);
+        let twin_lane = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(earlier));
+        let twin_other = _mm512_permutexvar_epi32(twin_lane, other);
+        let twin_id = _mm512_permutexvar_epi32(twin_lane, id);
+        let opposite = _mm512_mask_test_epi32_mask(
+            second,
+            _mm512_xor_epi32(other, twin_other),
+            _mm512_set1_epi32(VertexHalfEdge::FORWARD as i32),
+        );
+        let one = _mm512_set1_epi32(1);
+        let across = destination.0 as *mut i32;
+        _mm512_mask_i32scatter_epi32::<4>(across, opposite, id, _mm512_add_epi32(twin_id, one));
+        _mm512_mask_i32scatter_epi32::<4>(across, opposite, twin_id, _mm512_add_epi32(id, one));
+        Some(true)
+    }
+
     /// Sixteen triangles at a time: their corners gathered, the checks of
     /// [`VertexKeys::side_keys`] and the comparisons of [`side_ranks`] on their keys
     /// (box area bits, then smaller vertex, then larger) done lane-wise, with the same
@@ -314,7 +362,7 @@ impl EdgeKeys for VertexKeys<'_> {
 }
 
 /// A half-edge on its way to its smaller vertex's run (three words in this order, which
-/// [`HalfEdge::couple_pairs_avx512`] loads).
+/// [`EdgeKeys::couple_pairs_avx512`] loads).
 #[derive(Clone, Copy, Default)]
 #[repr(C)]
 struct VertexHalfEdge {
@@ -350,47 +398,6 @@ impl HalfEdge for VertexHalfEdge {
     #[inline]
     fn id(&self) -> u32 {
         self.id
-    }
-
-    /// The run in one vector of 16 lanes: `vpconflictd` gives each lane the lanes
-    /// before it with the same edge. A lane with two or more has an edge of three or
-    /// more half-edges (declined: `couple_run` takes the run). A lane with one is the
-    /// second half-edge of an edge of two; its twin's lane is the bit's index. Both
-    /// ends of each such couple are scattered into `across`, when the two run opposite
-    /// ways ([`EdgeKeys::may_couple`]). The scalar window compares every lane with
-    /// every other (16 × run length compares) and writes every lane; this is about
-    /// twenty instructions a run, and the dragon's 437k runs (6 half-edges long on average)
-    /// take 12 ms, not 23 (one core).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512cd")]
-    unsafe fn couple_pairs_avx512(run: &[Self], destination: &SharedSlice<u32>) -> Option<bool> {
-        use std::arch::x86_64::*;
-        debug_assert!(run.len() <= 16);
-        let lane_mask = ((1u32 << run.len()) - 1) as __mmask16;
-        let [_, other, id] = load_records_of_three(run.as_ptr() as *const i32, run.len());
-        // Spare lanes get an edge that no half-edge has.
-        let other =
-            _mm512_mask_blend_epi32(lane_mask, _mm512_set1_epi32(Self::NO_EDGE as i32), other);
-        let edge = _mm512_and_epi32(other, _mm512_set1_epi32(Self::NO_EDGE as i32));
-        let earlier = _mm512_conflict_epi32(edge);
-        let lowest = _mm512_and_epi32(earlier, _mm512_sub_epi32(_mm512_setzero_si512(), earlier));
-        if _mm512_mask_cmpgt_epu32_mask(lane_mask, earlier, lowest) != 0 {
-            return Some(false);
-        }
-        let second = _mm512_mask_test_epi32_mask(lane_mask, earlier, earlier);
-        let twin_lane = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(earlier));
-        let twin_other = _mm512_permutexvar_epi32(twin_lane, other);
-        let twin_id = _mm512_permutexvar_epi32(twin_lane, id);
-        let opposite = _mm512_mask_test_epi32_mask(
-            second,
-            _mm512_xor_epi32(other, twin_other),
-            _mm512_set1_epi32(Self::FORWARD as i32),
-        );
-        let one = _mm512_set1_epi32(1);
-        let across = destination.0 as *mut i32;
-        _mm512_mask_i32scatter_epi32::<4>(across, opposite, id, _mm512_add_epi32(twin_id, one));
-        _mm512_mask_i32scatter_epi32::<4>(across, opposite, twin_id, _mm512_add_epi32(id, one));
-        Some(true)
     }
 }
 

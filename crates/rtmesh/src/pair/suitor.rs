@@ -19,7 +19,7 @@
 //! input, by cell of space and key hash for position keys). Its hot loops, ranking the
 //! triangles' sides and searching a run, take a pairing method's own AVX-512 kernels
 //! where it has them and the CPU too ([`EdgeKeys::rank_and_count_avx512`],
-//! [`HalfEdge::couple_pairs_avx512`]); the scalar loops are the reference the tests
+//! [`EdgeKeys::couple_pairs_avx512`]); the scalar loops are the reference the tests
 //! hold them to. When no edge has more than two half-edges, a triangle's whole
 //! matching state is one byte: the order of its sides' keys and the side its suitor is
 //! across ([`match_by_side_ranks`]), and on several threads the same matching is found
@@ -35,7 +35,7 @@ use crate::pages::{filled_on_huge_pages, vec_on_huge_pages};
 use rayon::prelude::*;
 
 /// `Couples::across` value of a side whose edge has no couple (the slot's default).
-const NO_COUPLE: u32 = 0;
+pub(super) const NO_COUPLE: u32 = 0;
 /// `Couples::across` value of a side whose edge has three or more half-edges: its
 /// couples are in [`Couples::extra`].
 const SHARED_BY_MORE: u32 = u32::MAX;
@@ -65,16 +65,6 @@ pub(super) trait HalfEdge: Copy + Default + Send + Sync {
     fn edge(&self) -> Self::Edge;
     /// The half-edge (`3t + k`).
     fn id(&self) -> u32;
-    /// [`couple_pairs`] for a run of at most [`HalfEdge::WINDOW`] half-edges in AVX-512
-    /// registers, for half-edges that have such a kernel (else `None`). It may leave a
-    /// side with no couple unwritten ([`NO_COUPLE`] is where `across` starts).
-    ///
-    /// # Safety
-    /// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]); as [`couple_pairs`],
-    /// the run's slots in `destination` are this thread's.
-    unsafe fn couple_pairs_avx512(_run: &[Self], _destination: &SharedSlice<u32>) -> Option<bool> {
-        None
-    }
 }
 
 /// How a pairing method keys the half-edges for [`Couples::link`]: blocks of runs, such
@@ -106,6 +96,20 @@ pub(super) trait EdgeKeys: Sync {
     /// stage 1 as it sorts the block, before it searches the runs. None by default.
     #[inline]
     fn prefetch_couple(&self, _h: &Self::HalfEdge, _stage: u32) {}
+    /// [`couple_pairs`] for a run of at most 16 half-edges in AVX-512 registers, for
+    /// keys that have such a kernel (else `None`). It may leave a side with no couple
+    /// unwritten ([`NO_COUPLE`] is where `across` starts).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]); as [`couple_pairs`],
+    /// the run's slots in `destination` are this thread's.
+    unsafe fn couple_pairs_avx512(
+        &self,
+        _run: &[Self::HalfEdge],
+        _destination: &SharedSlice<u32>,
+    ) -> Option<bool> {
+        None
+    }
     /// The first pass of [`Couples::link`] in AVX-512, for keys that have such a
     /// kernel, over a prefix of the triangles from `first`: their bytes of `ranks` as
     /// the scalar pass writes them (`ranks` starts as [`EXCLUDED`]), and their
@@ -151,7 +155,7 @@ impl Couples {
     /// the triangles, then blocks, on the pool's threads. When `avx512` (which the CPU
     /// must have: [`has_avx512_conflict`]), the first pass and the runs' search take the
     /// kernels [`EdgeKeys::rank_and_count_avx512`] and
-    /// [`HalfEdge::couple_pairs_avx512`], where the keys have them.
+    /// [`EdgeKeys::couple_pairs_avx512`], where the keys have them.
     pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K, avx512: bool) -> Self {
         let n = triangle_count;
         let blocks = keys.blocks().max(1);
@@ -263,7 +267,7 @@ impl Couples {
 }
 
 /// Whether this CPU has AVX-512 F and CD (conflict detection), for
-/// [`EdgeKeys::rank_and_count_avx512`] and [`HalfEdge::couple_pairs_avx512`] (detected
+/// [`EdgeKeys::rank_and_count_avx512`] and [`EdgeKeys::couple_pairs_avx512`] (detected
 /// once, then a cached flag).
 pub(crate) fn has_avx512_conflict() -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -410,7 +414,7 @@ fn couple_runs<K: EdgeKeys, const AVX512: bool>(
     }
 }
 
-/// [`couple_runs`] compiled for AVX-512, so that [`HalfEdge::couple_pairs_avx512`]
+/// [`couple_runs`] compiled for AVX-512, so that [`EdgeKeys::couple_pairs_avx512`]
 /// inlines into the loop.
 ///
 /// # Safety
@@ -439,14 +443,14 @@ fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
     destination: &SharedSlice<u32>,
 ) -> bool {
     type H<K> = <K as EdgeKeys>::HalfEdge;
-    if run.len() > H::<K>::WINDOW {
-        return false;
-    }
-    if AVX512 {
+    if AVX512 && run.len() <= 16 {
         // SAFETY: AVX512 is set only when the CPU has the features.
-        if let Some(coupled) = unsafe { H::<K>::couple_pairs_avx512(run, destination) } {
+        if let Some(coupled) = unsafe { keys.couple_pairs_avx512(run, destination) } {
             return coupled;
         }
+    }
+    if run.len() > H::<K>::WINDOW {
+        return false;
     }
     // The edges in a fixed window (an edge no half-edge has in the spare lanes),
     // compared all at once: lanes where e's edge is.
