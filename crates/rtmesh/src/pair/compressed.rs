@@ -381,6 +381,7 @@ impl EdgeKeys for PositionKeys<'_> {
     /// ([`EdgeKeys::may_couple`]) and both ends written, one by one.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512cd")]
+    #[inline]
     unsafe fn couple_pairs_avx512(
         &self,
         run: &[PositionHalfEdge],

@@ -252,6 +252,7 @@ impl EdgeKeys for VertexKeys<'_> {
     /// take 12 ms, not 23 (one core).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512cd")]
+    #[inline]
     unsafe fn couple_pairs_avx512(
         &self,
         run: &[VertexHalfEdge],
