@@ -29,7 +29,9 @@
 //! twins.
 
 #[cfg(target_arch = "x86_64")]
-use super::suitor::{edge_bbsa_avx512, load_triangles_avx512, MAX_GATHER_VERTICES};
+use super::suitor::{
+    edge_bbsa_avx512, load_triangles_avx512, rank_and_count_lanes, MAX_GATHER_VERTICES,
+};
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::geom::Aabb;
@@ -371,6 +373,58 @@ impl EdgeKeys for PositionKeys<'_> {
 
     fn extra_key(&self, h: &PositionHalfEdge, rank: u32) -> u128 {
         couple_key(h.key, rank)
+    }
+
+    /// Sixteen triangles at a time: their nine key words gathered, then ranked and
+    /// counted by block lane-wise as the scalar pass does ([`rank_and_count_lanes`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512cd")]
+    unsafe fn rank_and_count_avx512(
+        &self,
+        first: usize,
+        ranks: &mut [u8],
+        count: &mut [u32],
+    ) -> usize {
+        use std::arch::x86_64::*;
+        let done = ranks.len() / 16 * 16;
+        let words = self.keys[3 * first..3 * (first + done)].as_ptr() as *const i32;
+        // Word w of side k of lane l's triangle: 9l + 3k + w words on.
+        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        let record = _mm512_mullo_epi32(lane, _mm512_set1_epi32(9));
+        let all_ones = _mm512_set1_epi32(-1);
+        let field = _mm512_set1_epi32((1 << FIELD_BITS) - 1);
+        let cell_shift = _mm512_set1_epi32((FIELD_BITS - self.cell_bits) as i32);
+        let cell_bits = _mm512_set1_epi32(self.cell_bits as i32);
+        for g in (0..done).step_by(16) {
+            let base = words.add(9 * g);
+            let keys = [0, 1, 2].map(|k| {
+                [0, 1, 2].map(|w| {
+                    let at = _mm512_add_epi32(record, _mm512_set1_epi32(3 * k + w));
+                    _mm512_i32gather_epi32::<4>(at, base)
+                })
+            });
+            // As `side_ranks`: side 0 reads EXCLUDED_KEY where the triangle takes no part.
+            let excluded = _mm512_cmpeq_epi32_mask(keys[0][0], all_ones)
+                & _mm512_cmpeq_epi32_mask(keys[0][1], all_ones)
+                & _mm512_cmpeq_epi32_mask(keys[0][2], all_ones);
+            // As `midpoint_fields`, then `block`.
+            let blocks = keys.map(|[high, middle, low]| {
+                let fields = [
+                    _mm512_or_si512(
+                        _mm512_slli_epi32::<16>(high),
+                        _mm512_srli_epi32::<16>(middle),
+                    ),
+                    _mm512_or_si512(_mm512_slli_epi32::<8>(middle), _mm512_srli_epi32::<24>(low)),
+                    low,
+                ];
+                let [x, y, z] =
+                    fields.map(|f| _mm512_srlv_epi32(_mm512_and_si512(f, field), cell_shift));
+                let xy = _mm512_or_si512(_mm512_sllv_epi32(x, cell_bits), y);
+                _mm512_or_si512(_mm512_sllv_epi32(xy, cell_bits), z)
+            });
+            rank_and_count_lanes(&keys, blocks, !excluded, &mut ranks[g..g + 16], count);
+        }
+        done
     }
 
     /// The run in one vector of 16 lanes, as the indexed kernel has it, on a 32-bit

@@ -28,7 +28,8 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, load_records_of_three, load_triangles_avx512, MAX_GATHER_VERTICES,
+    edge_bbsa_avx512, load_records_of_three, load_triangles_avx512, rank_and_count_lanes,
+    MAX_GATHER_VERTICES,
 };
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
@@ -305,7 +306,6 @@ impl EdgeKeys for VertexKeys<'_> {
         ranks: &mut [u8],
         count: &mut [u32],
     ) -> usize {
-        use super::suitor::{EXCLUDED, NO_SUITOR};
         use std::arch::x86_64::*;
         let mesh = self.mesh;
         if mesh.positions.len() > MAX_GATHER_VERTICES {
@@ -325,38 +325,9 @@ impl EdgeKeys for VertexKeys<'_> {
                 ]
             };
             let keys = [key(0), key(1), key(2)];
-            let less = |x: &[__m512i; 3], y: &[__m512i; 3]| {
-                let below = |i: usize| _mm512_cmplt_epu32_mask(x[i], y[i]);
-                let equal = |i: usize| _mm512_cmpeq_epi32_mask(x[i], y[i]);
-                below(0) | equal(0) & (below(1) | equal(1) & below(2))
-            };
-            // `side_ranks`, with no suitor yet.
-            let mut byte = _mm512_set1_epi32((NO_SUITOR << 6) as i32);
-            for k in 0..3 {
-                let one = _mm512_set1_epi32(1 << (2 * k));
-                for j in [(k + 1) % 3, (k + 2) % 3] {
-                    byte = _mm512_mask_add_epi32(byte, less(&keys[k], &keys[j]), byte, one);
-                }
-            }
-            let byte = _mm512_mask_blend_epi32(active, _mm512_set1_epi32(EXCLUDED as i32), byte);
-            _mm_storeu_si128(
-                ranks[g..g + 16].as_mut_ptr() as *mut __m128i,
-                _mm512_cvtepi32_epi8(byte),
-            );
-            // Each active triangle's half-edges, by the block of their smaller vertex.
-            let mut block = [[0u32; 16]; 3];
-            for (b, k) in block.iter_mut().zip(&keys) {
-                let shifted = _mm512_srli_epi32::<BLOCK_SHIFT>(k[1]);
-                _mm512_storeu_si512(b.as_mut_ptr() as *mut __m512i, shifted);
-            }
-            let mut lanes = active as u32;
-            while lanes != 0 {
-                let l = lanes.trailing_zeros() as usize;
-                lanes &= lanes - 1;
-                for b in &block {
-                    count[b[l] as usize] += 1;
-                }
-            }
+            // Each half-edge's block: that of its smaller vertex.
+            let blocks = keys.map(|k| _mm512_srli_epi32::<BLOCK_SHIFT>(k[1]));
+            rank_and_count_lanes(&keys, blocks, active, &mut ranks[g..g + 16], count);
         }
         done
     }

@@ -393,6 +393,58 @@ pub(super) unsafe fn edge_bbsa_avx512(
     )
 }
 
+/// The first pass of [`Couples::link`] for 16 triangles in AVX-512 lanes, as the
+/// scalar pass does it: `keys[k]` is the key of side k in three words, most
+/// significant first (compared unsigned), and `blocks[k]` the block of its half-edge.
+/// Writes the triangles' bytes of `ranks` ([`side_ranks`] with no suitor, or
+/// [`EXCLUDED`] in lanes not `active`) and counts the active ones' half-edges into
+/// `count` by block, one by one.
+///
+/// # Safety
+/// The CPU has AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn rank_and_count_lanes(
+    keys: &[[std::arch::x86_64::__m512i; 3]; 3],
+    blocks: [std::arch::x86_64::__m512i; 3],
+    active: std::arch::x86_64::__mmask16,
+    ranks: &mut [u8],
+    count: &mut [u32],
+) {
+    use std::arch::x86_64::*;
+    let less = |x: &[__m512i; 3], y: &[__m512i; 3]| {
+        let below = |i: usize| _mm512_cmplt_epu32_mask(x[i], y[i]);
+        let equal = |i: usize| _mm512_cmpeq_epi32_mask(x[i], y[i]);
+        below(0) | equal(0) & (below(1) | equal(1) & below(2))
+    };
+    let mut byte = _mm512_set1_epi32((NO_SUITOR << 6) as i32);
+    for k in 0..3 {
+        let one = _mm512_set1_epi32(1 << (2 * k));
+        for j in [(k + 1) % 3, (k + 2) % 3] {
+            byte = _mm512_mask_add_epi32(byte, less(&keys[k], &keys[j]), byte, one);
+        }
+    }
+    let byte = _mm512_mask_blend_epi32(active, _mm512_set1_epi32(EXCLUDED as i32), byte);
+    _mm_storeu_si128(
+        ranks[..16].as_mut_ptr() as *mut __m128i,
+        _mm512_cvtepi32_epi8(byte),
+    );
+    let block = blocks.map(|b| {
+        let mut lanes = [0u32; 16];
+        _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, b);
+        lanes
+    });
+    let mut lanes = active as u32;
+    while lanes != 0 {
+        let l = lanes.trailing_zeros() as usize;
+        lanes &= lanes - 1;
+        for b in &block {
+            count[b[l] as usize] += 1;
+        }
+    }
+}
+
 /// Couple the runs of a block sorted by run, run `r` ending at `ends[r]`
 /// ([`couple_pairs`], or [`couple_run`] where that declines), with the AVX-512 run
 /// search when `AVX512`.
