@@ -30,7 +30,8 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, load_triangles_avx512, rank_and_count_lanes, MAX_GATHER_VERTICES,
+    edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes,
+    MAX_GATHER_VERTICES,
 };
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
@@ -443,24 +444,8 @@ impl EdgeKeys for PositionKeys<'_> {
     ) -> Option<bool> {
         use std::arch::x86_64::*;
         debug_assert!(run.len() <= 16);
-        // Four masked loads of the records' words (nothing past the run is read), and
-        // word w of record i to lane i of vector w.
-        let words = 4 * run.len() as u32;
-        let word_mask =
-            |from: u32| ((1u64 << (words.clamp(from, from + 16) - from)) - 1) as __mmask16;
-        let base = run.as_ptr() as *const i32;
-        let v = [0, 16, 32, 48]
-            .map(|from| _mm512_maskz_loadu_epi32(word_mask(from), base.add(from as usize)));
-        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-        let upper = _mm512_cmpge_epi32_mask(lane, _mm512_set1_epi32(8));
-        let key = [0, 1, 2].map(|w| {
-            let index = _mm512_add_epi32(_mm512_slli_epi32::<2>(lane), _mm512_set1_epi32(w));
-            _mm512_mask_blend_epi32(
-                upper,
-                _mm512_permutex2var_epi32(v[0], index, v[1]),
-                _mm512_permutex2var_epi32(v[2], index, v[3]),
-            )
-        });
+        let [high, middle, low, _] = load_records::<4>(run.as_ptr() as *const i32, run.len());
+        let key = [high, middle, low];
         let [a, b] = SIGNATURE_FACTORS.map(|f| _mm512_set1_epi32(f as i32));
         let signature = _mm512_xor_si512(
             _mm512_xor_si512(_mm512_mullo_epi32(key[0], a), _mm512_mullo_epi32(key[1], b)),
@@ -522,8 +507,9 @@ impl EdgeKeys for PositionKeys<'_> {
     }
 }
 
-/// A half-edge and its key.
+/// A half-edge and its key (four words in this order, which the run kernel loads).
 #[derive(Clone, Copy, Default)]
+#[repr(C)]
 pub(super) struct PositionHalfEdge {
     key: EdgeKey,
     /// The half-edge (`3t + k`).

@@ -28,7 +28,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, load_records_of_three, load_triangles_avx512, rank_and_count_lanes,
+    edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes,
     MAX_GATHER_VERTICES,
 };
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
@@ -262,7 +262,7 @@ impl EdgeKeys for VertexKeys<'_> {
         use std::arch::x86_64::*;
         debug_assert!(run.len() <= 16);
         let lane_mask = ((1u32 << run.len()) - 1) as __mmask16;
-        let [_, other, id] = load_records_of_three(run.as_ptr() as *const i32, run.len());
+        let [_, other, id] = load_records::<3>(run.as_ptr() as *const i32, run.len());
         // Spare lanes get an edge that no half-edge has.
         let other = _mm512_mask_blend_epi32(
             lane_mask,

@@ -281,38 +281,42 @@ pub(crate) fn has_avx512_conflict() -> bool {
     }
 }
 
-/// The three words of each of `count` (at most 16) records of three 32-bit words at
-/// `base`, the `w`-th word of record `i` in lane `i` of vector `w` (0 in lanes from
-/// `count` on). Up to three masked loads: nothing past the records is read.
+/// The words of each of `count` (at most 16) records of `W` (3 or 4) 32-bit words at
+/// `base`: word `w` of record `i` in lane `i` of vector `w` (0 in lanes from `count`
+/// on). Up to `W` masked loads, so nothing past the records is read.
 ///
 /// # Safety
 /// The CPU has AVX-512 F; the records are readable.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-pub(super) unsafe fn load_records_of_three(
+pub(super) unsafe fn load_records<const W: usize>(
     base: *const i32,
     count: usize,
-) -> [std::arch::x86_64::__m512i; 3] {
+) -> [std::arch::x86_64::__m512i; W] {
     use std::arch::x86_64::*;
-    debug_assert!(count <= 16);
-    let words = 3 * count as u32;
+    debug_assert!(count <= 16 && (W == 3 || W == 4));
+    let words = (W * count) as u32;
     let word_mask = |from: u32| ((1u64 << (words.clamp(from, from + 16) - from)) - 1) as __mmask16;
-    let v0 = _mm512_maskz_loadu_epi32(word_mask(0), base);
-    let v1 = _mm512_maskz_loadu_epi32(word_mask(16), base.add(16));
-    let v2 = _mm512_maskz_loadu_epi32(word_mask(32), base.add(32));
+    // Vector v holds words 16v to 16v + 15; a fourth of 3-word records is all zeros.
+    let v = [0, 1, 2, 3].map(|v| {
+        let from = 16 * v as u32;
+        if v < W {
+            _mm512_maskz_loadu_epi32(word_mask(from), base.add(from as usize))
+        } else {
+            _mm512_setzero_si512()
+        }
+    });
     let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    [0, 1, 2].map(|w| {
+    std::array::from_fn(|w| {
         let index = _mm512_add_epi32(
-            _mm512_mullo_epi32(lane, _mm512_set1_epi32(3)),
-            _mm512_set1_epi32(w),
+            _mm512_mullo_epi32(lane, _mm512_set1_epi32(W as i32)),
+            _mm512_set1_epi32(w as i32),
         );
-        let in_v0_v1 = _mm512_permutex2var_epi32(v0, index, v1);
-        let in_v2 = _mm512_permutexvar_epi32(index, v2);
         _mm512_mask_blend_epi32(
             _mm512_cmpge_epi32_mask(index, _mm512_set1_epi32(32)),
-            in_v0_v1,
-            in_v2,
+            _mm512_permutex2var_epi32(v[0], index, v[1]),
+            _mm512_permutex2var_epi32(v[2], index, v[3]),
         )
     })
 }
@@ -344,7 +348,7 @@ pub(super) unsafe fn load_triangles_avx512(
     let triangles = mesh.triangles[first..first + 16].as_ptr() as *const i32;
     let coordinates = mesh.positions.as_ptr() as *const f32;
     let vertex_count = _mm512_set1_epi32(mesh.positions.len() as i32);
-    let v = load_records_of_three(triangles, 16);
+    let v = load_records::<3>(triangles, 16);
     let mut active = _mm512_cmplt_epu32_mask(v[0], vertex_count)
         & _mm512_cmplt_epu32_mask(v[1], vertex_count)
         & _mm512_cmplt_epu32_mask(v[2], vertex_count)
