@@ -30,7 +30,7 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes,
+    edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes, twin_lanes,
     MAX_GATHER_VERTICES,
 };
 use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
@@ -453,13 +453,9 @@ impl EdgeKeys for PositionKeys<'_> {
         );
         // Spare lanes come after the run's, so no run lane counts them.
         let lane_mask = ((1u32 << run.len()) - 1) as __mmask16;
-        let earlier = _mm512_conflict_epi32(signature);
-        let lowest = _mm512_and_epi32(earlier, _mm512_sub_epi32(_mm512_setzero_si512(), earlier));
-        if _mm512_mask_cmpgt_epu32_mask(lane_mask, earlier, lowest) != 0 {
+        let Some((second, twin_lane)) = twin_lanes(signature, lane_mask) else {
             return Some(false);
-        }
-        let second = _mm512_mask_test_epi32_mask(lane_mask, earlier, earlier);
-        let twin_lane = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(earlier));
+        };
         let same = key.map(|w| {
             _mm512_mask_cmpeq_epi32_mask(second, w, _mm512_permutexvar_epi32(twin_lane, w))
         });

@@ -321,6 +321,32 @@ pub(super) unsafe fn load_records<const W: usize>(
     })
 }
 
+/// The twins within a run of half-edges in AVX-512 lanes (the run's lanes are
+/// `run_lanes`, from lane 0): `vpconflictd` gives each lane the lanes before it with the
+/// same `edge`. `None` when a run lane has two or more (an edge of three or more
+/// half-edges); else the lanes that have one (each the second half-edge of an edge of
+/// two) and, in those, the lane of its twin.
+///
+/// # Safety
+/// The CPU has AVX-512 F and CD.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512cd")]
+#[inline]
+pub(super) unsafe fn twin_lanes(
+    edge: std::arch::x86_64::__m512i,
+    run_lanes: std::arch::x86_64::__mmask16,
+) -> Option<(std::arch::x86_64::__mmask16, std::arch::x86_64::__m512i)> {
+    use std::arch::x86_64::*;
+    let earlier = _mm512_conflict_epi32(edge);
+    let lowest = _mm512_and_epi32(earlier, _mm512_sub_epi32(_mm512_setzero_si512(), earlier));
+    if _mm512_mask_cmpgt_epu32_mask(run_lanes, earlier, lowest) != 0 {
+        return None;
+    }
+    let second = _mm512_mask_test_epi32_mask(run_lanes, earlier, earlier);
+    let twin_lane = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(earlier));
+    Some((second, twin_lane))
+}
+
 /// The most vertices [`load_triangles_avx512`] takes: gathers take i32 offsets, and
 /// `3v + axis` must fit.
 pub(super) const MAX_GATHER_VERTICES: usize = (i32::MAX / 3) as usize;
