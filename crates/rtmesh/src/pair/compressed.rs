@@ -209,9 +209,6 @@ impl Quantiser {
         }
         let done = sides.len() / 3 / 16 * 16;
         let words = sides.as_mut_ptr() as *mut i32;
-        // Word w of side k of lane l's triangle: 9l + 3k + w words on.
-        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-        let record = _mm512_mullo_epi32(lane, _mm512_set1_epi32(9));
         let [min, scale] = [self.min, self.scale].map(|v| v.to_array().map(|c| _mm512_set1_ps(c)));
         let (zero, half) = (_mm512_setzero_ps(), _mm512_set1_ps(0.5));
         let field_max = _mm512_set1_ps(FIELD_MAX);
@@ -236,13 +233,31 @@ impl Quantiser {
                 ];
                 for (w, word) in key.into_iter().enumerate() {
                     let word = _mm512_mask_blend_epi32(active, _mm512_set1_epi32(-1), word);
-                    let at = _mm512_add_epi32(record, _mm512_set1_epi32((3 * k + w) as i32));
+                    let at = key_word_offsets(k, w);
                     _mm512_i32scatter_epi32::<4>(words.add(9 * g), at, word);
                 }
             }
         }
         done
     }
+}
+
+/// Where word `w` of side `k`'s key of each of 16 consecutive triangles is, in words
+/// from the first one's keys (lane `l`: `9l + 3k + w`), for the AVX-512 passes that
+/// write and read the keys.
+///
+/// # Safety
+/// The CPU has AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+unsafe fn key_word_offsets(k: usize, w: usize) -> std::arch::x86_64::__m512i {
+    use std::arch::x86_64::*;
+    let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    _mm512_add_epi32(
+        _mm512_mullo_epi32(lane, _mm512_set1_epi32(9)),
+        _mm512_set1_epi32((3 * k + w) as i32),
+    )
 }
 
 /// The key of every side of a triangle that takes no part (no real key: its BBSA
@@ -389,9 +404,6 @@ impl EdgeKeys for PositionKeys<'_> {
         use std::arch::x86_64::*;
         let done = ranks.len() / 16 * 16;
         let words = self.keys[3 * first..3 * (first + done)].as_ptr() as *const i32;
-        // Word w of side k of lane l's triangle: 9l + 3k + w words on.
-        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-        let record = _mm512_mullo_epi32(lane, _mm512_set1_epi32(9));
         let all_ones = _mm512_set1_epi32(-1);
         let field = _mm512_set1_epi32((1 << FIELD_BITS) - 1);
         let cell_shift = _mm512_set1_epi32((FIELD_BITS - self.cell_bits) as i32);
@@ -400,7 +412,7 @@ impl EdgeKeys for PositionKeys<'_> {
             let base = words.add(9 * g);
             let keys = [0, 1, 2].map(|k| {
                 [0, 1, 2].map(|w| {
-                    let at = _mm512_add_epi32(record, _mm512_set1_epi32(3 * k + w));
+                    let at = key_word_offsets(k, w);
                     _mm512_i32gather_epi32::<4>(at, base)
                 })
             });
