@@ -20,14 +20,16 @@
 //! triangles' sides and searching a run, take a pairing method's own AVX-512 kernels
 //! where it has them and the CPU too ([`EdgeKeys::rank_and_count_avx512`],
 //! [`EdgeKeys::couple_pairs_avx512`]); the scalar loops are the reference the tests
-//! hold them to. When no edge has more than two half-edges, a triangle's whole
-//! matching state is one byte: the order of its sides' keys and the side its suitor is
-//! across ([`match_by_side_ranks`]), and on several threads the same matching is found
-//! in rounds ([`match_in_rounds`]); else keys are `u128`s from the pairing method,
-//! computed when a triangle proposes.
+//! hold them to. When no edge has more than two half-edges, the twins become links
+//! listed in the order of each triangle's keys ([`link_by_rank`]), which carry the
+//! couple's rank at the other end: then a triangle's whole matching state is one byte,
+//! the rank of its suitor's couple, and a proposal reads one link and one byte at
+//! best ([`propose`]); on several threads the same matching is found in rounds
+//! ([`match_in_rounds`]). Else keys are `u128`s from the pairing method, computed when
+//! a triangle proposes.
 //! Cost: O(T) time (O(E · max degree) proposals at worst, and O(L log L) for a run of
 //! L half-edges past the window); 12 or 16 bytes per half-edge for the blocks, 4 for
-//! the twins and 1 per triangle for the state.
+//! the twins (then links) and 1 per triangle for the state.
 
 use super::{Pairing, UNPAIRED};
 use crate::mesh::{part_cursors, triangle_part_len, SharedSlice};
@@ -48,8 +50,8 @@ pub(super) struct Couples {
     /// sorted by triangle.
     extra: Vec<ExtraCouple>,
     /// Per triangle, the rank of each side's key among its three (0 for the largest)
-    /// in two bits, sides 0, 1, 2 from the lowest, and [`NO_SUITOR`] in the top two;
-    /// [`EXCLUDED`] for a triangle that takes no part.
+    /// in two bits, sides 0, 1, 2 from the lowest; [`EXCLUDED`] for a triangle that
+    /// takes no part.
     side_ranks: Vec<u8>,
 }
 
@@ -176,7 +178,7 @@ impl Couples {
                 for (i, r) in ranks.iter_mut().enumerate().skip(done) {
                     let t = p * part_len + i;
                     if let Some(rank) = keys.side_ranks(t) {
-                        *r = rank | NO_SUITOR << 6;
+                        *r = rank;
                         for h in &keys.half_edges(t) {
                             count[keys.block(h)] += 1;
                         }
@@ -426,7 +428,7 @@ pub(super) unsafe fn edge_bbsa_avx512(
 /// The first pass of [`Couples::link`] for 16 triangles in AVX-512 lanes, as the
 /// scalar pass does it: `keys[k]` is the key of side k in three words, most
 /// significant first (compared unsigned), and `blocks[k]` the block of its half-edge.
-/// Writes the triangles' bytes of `ranks` ([`side_ranks`] with no suitor, or
+/// Writes the triangles' bytes of `ranks` ([`side_ranks`], or
 /// [`EXCLUDED`] in lanes not `active`) and counts the active ones' half-edges into
 /// `count` by block, one by one.
 ///
@@ -448,7 +450,7 @@ pub(super) unsafe fn rank_and_count_lanes(
         let equal = |i: usize| _mm512_cmpeq_epi32_mask(x[i], y[i]);
         below(0) | equal(0) & (below(1) | equal(1) & below(2))
     };
-    let mut byte = _mm512_set1_epi32((NO_SUITOR << 6) as i32);
+    let mut byte = _mm512_setzero_si512();
     for k in 0..3 {
         let one = _mm512_set1_epi32(1 << (2 * k));
         for j in [(k + 1) % 3, (k + 2) % 3] {
@@ -632,77 +634,91 @@ struct ExtraCouple {
 /// keys of triangle `t`'s three sides (called only for triangles with a couple on a side
 /// that is not [`SHARED_BY_MORE`]). Keys must be distinct between couples and above 0.
 pub(super) fn match_greedily(couples: Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> Pairing {
-    if !couples.extra.is_empty() {
-        match_by_keys(&couples, side_keys)
-    } else if rayon::current_num_threads() > 1 {
-        match_in_rounds(&couples.across, couples.side_ranks)
-    } else {
-        match_by_side_ranks(&couples.across, couples.side_ranks)
+    let n = couples.side_ranks.len();
+    if !couples.extra.is_empty() || n > MAX_LINKED_TRIANGLES {
+        return match_by_keys(&couples, side_keys);
     }
+    let Couples {
+        across: mut links,
+        side_ranks: mut state,
+        ..
+    } = couples;
+    link_by_rank(&mut links, &state);
+    state.fill(NO_SUITOR);
+    if rayon::current_num_threads() > 1 {
+        match_in_rounds(&links, &mut state);
+    } else {
+        propose(&links, &mut state, 0..n);
+    }
+    Pairing::from_partner_fn(n, |t| suitor_partner(&links, &state, t))
 }
 
-/// Suitor when every couple is across a side ([`Couples::extra`] is empty). Then a
-/// triangle's suitor is across one of its sides, and comparing two couples of one
-/// triangle needs only the order of its three sides' keys. So all the state of a
-/// triangle is one byte, which starts as its [`Couples::side_ranks`]: the rank of each
-/// side in two bits, and in the top two the side its suitor is across, or
-/// [`NO_SUITOR`]. The random reads and writes of the search touch one byte per
-/// triangle (in cache) instead of a 16-byte key and a 4-byte suitor.
-fn match_by_side_ranks(across: &[u32], mut state: Vec<u8>) -> Pairing {
-    propose_by_side_ranks(across, &mut state);
-    Pairing::from_partner_fn(state.len(), |t| suitor_partner(across, &state, t))
-}
+/// A couple seen from one of its triangles, as [`propose`] and [`match_in_rounds`]
+/// read it: the triangle `v` at the other end, and the couple's rank among `v`'s
+/// sides (0 for its largest key), as `v << 2 | rank`; or this, for a side with no
+/// couple (no link has rank 3).
+const NO_LINK: u32 = u32::MAX;
+/// The most triangles that links name.
+const MAX_LINKED_TRIANGLES: usize = 1 << 30;
 
-/// The proposals of [`match_by_side_ranks`], which leave every triangle's suitor in
-/// its state. A triangle whose state reads [`EXCLUDED`] neither proposes nor is
-/// proposed to.
-fn propose_by_side_ranks(across: &[u32], state: &mut [u8]) {
-    let n = state.len();
-    for first in 0..n {
-        let mut proposer = first;
-        loop {
-            let own = state[proposer];
-            // The best side of the proposer whose neighbour prefers it to its suitor.
-            let (mut best_rank, mut best) = (NO_SUITOR, NO_COUPLE);
-            for k in 0..3 {
-                let twin = across[3 * proposer + k];
-                if twin == NO_COUPLE {
-                    continue;
+/// Turn `across` (twins; [`Couples::extra`] is empty) into links in place, on the
+/// pool's threads: each triangle's three in the order of its `ranks` (its best couple
+/// first; sides with no couple may tie, sides with one may not, as their key is their
+/// edge's). Twin `3v + j` becomes `v << 2` and the rank of side `j` in `v`'s ranks.
+fn link_by_rank(across: &mut [u32], ranks: &[u8]) {
+    let part_len = triangle_part_len(ranks.len());
+    across
+        .par_chunks_mut(3 * part_len)
+        .zip(ranks.par_chunks(part_len))
+        .for_each(|(part, own_ranks)| {
+            for (sides, &own) in part.chunks_exact_mut(3).zip(own_ranks) {
+                let twins = [sides[0], sides[1], sides[2]];
+                sides.fill(NO_LINK);
+                for (k, twin) in twins.into_iter().enumerate() {
+                    if twin != NO_COUPLE {
+                        let (v, j) = ((twin - 1) / 3, (twin - 1) % 3);
+                        let rank_there = (ranks[v as usize] >> (2 * j)) & 3;
+                        sides[((own >> (2 * k)) & 3) as usize] = v << 2 | rank_there as u32;
+                    }
                 }
-                let (v, j) = (((twin - 1) / 3) as usize, (twin - 1) % 3);
-                let theirs = state[v];
-                // Bits 6-7 hold the suitor's side, so with no suitor this "rank" is
-                // NO_SUITOR, worse than every side.
-                let suitor_rank = (theirs >> (2 * (theirs >> 6))) & 3;
-                let rank = (own >> (2 * k)) & 3;
-                let better = ((theirs >> (2 * j)) & 3 < suitor_rank) & (rank < best_rank);
-                best_rank = if better { rank } else { best_rank };
-                best = if better { twin } else { best };
             }
-            if best == NO_COUPLE {
-                break;
-            }
-            let (v, j) = (((best - 1) / 3) as usize, ((best - 1) % 3) as u8);
-            let displaced = state[v] >> 6;
-            state[v] = (state[v] & 0x3f) | j << 6;
+        });
+}
+
+/// Suitor when every couple is across a side ([`Couples::extra`] is empty): each of
+/// `proposers` proposes in turn, then each triangle it displaces. Its sides' links
+/// are in the order of its keys, so it proposes across the first one whose triangle
+/// takes it: one whose suitor's couple has a larger rank there, or that has no
+/// suitor. `state[t]` is the rank in `t` of its suitor's couple, or [`NO_SUITOR`]:
+/// the rank names the side, and so the suitor, which is the triangle across it. All
+/// the state is one byte a triangle, and a proposal reads one link and one byte when
+/// its best couple is accepted (on the dragon, 10 ms where the rank comparisons of
+/// twins' sides took 20, one core).
+fn propose(links: &[u32], state: &mut [u8], proposers: impl IntoIterator<Item = usize>) {
+    for first in proposers {
+        let mut proposer = first;
+        while let Some(&best) = links[3 * proposer..3 * proposer + 3]
+            .iter()
+            .find(|&&l| l != NO_LINK && ((l & 3) as u8) < state[(l >> 2) as usize])
+        {
+            let v = (best >> 2) as usize;
+            let displaced = std::mem::replace(&mut state[v], (best & 3) as u8);
             if displaced == NO_SUITOR {
                 break;
             }
-            proposer = ((across[3 * v + displaced as usize] - 1) / 3) as usize;
+            proposer = (links[3 * v + displaced as usize] >> 2) as usize;
         }
     }
 }
 
-/// Triangle `t`'s partner after [`propose_by_side_ranks`]: its suitor, when it is its
-/// suitor's suitor. That is, t's suitor is across side s of t, and t is across the side
-/// of the suitor that the suitor's suitor is across. Read without a branch (clamped
-/// when t has no suitor).
+/// Triangle `t`'s partner after [`propose`] (or [`match_in_rounds`]): its suitor, when
+/// it is its suitor's suitor. Read without a branch (clamped when t has no suitor).
 #[inline]
-fn suitor_partner(across: &[u32], state: &[u8], t: usize) -> u32 {
-    let side = state[t] >> 6;
-    let twin = twin_across(across, t, side);
-    let u = ((twin / 3) as usize).min(state.len() - 1);
-    let mutual = (side != NO_SUITOR) & (state[u] >> 6 == (twin % 3) as u8);
+fn suitor_partner(links: &[u32], state: &[u8], t: usize) -> u32 {
+    let rank = state[t];
+    let link = links[3 * t + rank.min(2) as usize];
+    let u = ((link >> 2) as usize).min(state.len() - 1);
+    let mutual = (rank != NO_SUITOR) & (state[u] == (link & 3) as u8);
     if mutual {
         u as u32
     } else {
@@ -710,53 +726,47 @@ fn suitor_partner(across: &[u32], state: &[u8], t: usize) -> u32 {
     }
 }
 
-/// [`match_by_side_ranks`]' matching on several threads, in rounds (the pointer
-/// algorithm of Manne & Bisseling, "A Parallel Approximation Algorithm for the Weighted
-/// Maximum Matching Problem", PPAM 2007). In a round, every free triangle points
-/// across its best side with a free neighbour; two triangles that point at each other
-/// are a pair, as their couple is the largest at both, which the greedy scan takes
-/// too. The free triangles that still have a free neighbour go again. A round is two
-/// passes over the triangles in play, split over the pool's threads: one writes the
+/// [`propose`]'s matching on several threads, in rounds (the pointer algorithm of
+/// Manne & Bisseling, "A Parallel Approximation Algorithm for the Weighted Maximum
+/// Matching Problem", PPAM 2007). In a round, every free triangle points across its
+/// best side with a free neighbour; two triangles that point at each other are a
+/// pair, as their couple is the largest at both, which the greedy scan takes too. The
+/// free triangles that still have a free neighbour go again. A round is two passes
+/// over the triangles in play, split over the pool's threads: one writes the
 /// pointers, the next reads them and marks the pairs. The dragon takes 8 rounds over
 /// 1.6 × its triangles in all.
+///
+/// A pair is written as two triangles that are each other's suitors (`state`, which
+/// starts as [`NO_SUITOR`] for all). That is what Suitor leaves, and no free
+/// triangle has a couple that the pair's triangles would take instead: a couple
+/// larger than the pair's led to a triangle that was paired already.
 ///
 /// A round pairs only the couples that are the largest at both ends, so along a chain
 /// of couples whose keys rise (the ring of a fan, whose spokes' areas rise with the
 /// angle) it pairs a few and the rounds grow as long as the chain: O(T²). So when a
 /// round keeps more than half of its triangles in play, the rest is left to Suitor on
-/// one thread, which passes over the paired triangles (their ranks read [`EXCLUDED`])
-/// and finds the greedy matching of the others; with the pairs found so far, that is
-/// the greedy matching of all.
-fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
-    let n = ranks.len();
-    // choice[t]: the side that t points across this round, or NO_SUITOR.
+/// one thread, which finds the greedy matching of the triangles still in play; with
+/// the pairs found so far, that is the greedy matching of all.
+fn match_in_rounds(links: &[u32], state: &mut [u8]) {
+    let n = state.len();
+    // choice[t]: the rank in t of the couple that t points across this round, or
+    // NO_SUITOR.
     let mut choice = vec![NO_SUITOR; n];
-    // A paired triangle's ranks read TAKEN (as do those of one that takes no part).
-    let free = |r: u8| r & TAKEN != TAKEN;
-    let point = |t: usize, ranks: &[u8]| {
-        let own = ranks[t];
-        let (mut best_rank, mut best) = (NO_SUITOR, NO_SUITOR);
-        for k in 0..3 {
-            let twin = across[3 * t + k];
-            let v = if twin == NO_COUPLE {
-                t
-            } else {
-                ((twin - 1) / 3) as usize
-            };
-            let rank = (own >> (2 * k)) & 3;
-            let better = (twin != NO_COUPLE) & free(ranks[v]) & (rank < best_rank);
-            best_rank = if better { rank } else { best_rank };
-            best = if better { k as u8 } else { best };
-        }
-        best
+    let point = |t: usize, state: &[u8]| {
+        (0..3)
+            .find(|&r| {
+                let link = links[3 * t + r];
+                link != NO_LINK && state[(link >> 2) as usize] == NO_SUITOR
+            })
+            .map_or(NO_SUITOR, |r| r as u8)
     };
     // Whether t and the triangle it points at point at each other (a pair), and
     // whether t, pointing but unpaired, goes again.
     let settle = |t: usize, choice: &[u8]| {
         let c = choice[t];
-        let twin = twin_across(across, t, c);
-        let u = ((twin / 3) as usize).min(n - 1);
-        let paired = (c != NO_SUITOR) & (choice[u] == (twin % 3) as u8);
+        let link = links[3 * t + c.min(2) as usize];
+        let u = ((link >> 2) as usize).min(n - 1);
+        let paired = (c != NO_SUITOR) & (choice[u] == (link & 3) as u8);
         (paired, (c != NO_SUITOR) & !paired)
     };
     // Round 1, over all triangles; its survivors in parts, one per thread.
@@ -766,18 +776,18 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
         .enumerate()
         .for_each(|(p, chunk)| {
             for (i, c) in chunk.iter_mut().enumerate() {
-                *c = point(p * part_len + i, &ranks);
+                *c = point(p * part_len + i, state);
             }
         });
-    let mut parts: Vec<Vec<u32>> = ranks
+    let mut parts: Vec<Vec<u32>> = state
         .par_chunks_mut(part_len)
         .enumerate()
         .map(|(p, chunk)| {
             let mut part = Vec::with_capacity(chunk.len());
-            for (i, r) in chunk.iter_mut().enumerate() {
+            for (i, s) in chunk.iter_mut().enumerate() {
                 let t = p * part_len + i;
                 let (paired, again) = settle(t, &choice);
-                *r |= if paired { TAKEN } else { 0 };
+                *s = if paired { choice[t] } else { NO_SUITOR };
                 if again {
                     part.push(t as u32);
                 }
@@ -790,7 +800,7 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
     while survivors > 0 && 2 * survivors <= players {
         let destination = SharedSlice(choice.as_mut_ptr());
         let destination = &destination;
-        let ranks_now = &ranks;
+        let state_now = &*state;
         parts.par_iter().for_each(|part| {
             for &t in part {
                 // SAFETY: a triangle is in one part only.
@@ -798,11 +808,11 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
                     destination
                         .0
                         .add(t as usize)
-                        .write(point(t as usize, ranks_now))
+                        .write(point(t as usize, state_now))
                 };
             }
         });
-        let destination = SharedSlice(ranks.as_mut_ptr());
+        let destination = SharedSlice(state.as_mut_ptr());
         let destination = &destination;
         let choice = &choice;
         parts.par_iter_mut().for_each(|part| {
@@ -810,8 +820,10 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
             for i in 0..part.len() {
                 let t = part[i] as usize;
                 let (paired, again) = settle(t, choice);
-                // SAFETY: as above.
-                unsafe { *destination.0.add(t) |= if paired { TAKEN } else { 0 } };
+                if paired {
+                    // SAFETY: as above.
+                    unsafe { destination.0.add(t).write(choice[t]) };
+                }
                 part[kept] = t as u32;
                 kept += again as usize;
             }
@@ -820,34 +832,15 @@ fn match_in_rounds(across: &[u32], mut ranks: Vec<u8>) -> Pairing {
         (players, survivors) = (survivors, in_play(&parts));
     }
     if survivors > 0 {
-        propose_by_side_ranks(across, &mut ranks);
+        propose(
+            links,
+            state,
+            parts.into_iter().flatten().map(|t| t as usize),
+        );
     }
-    // The free triangles' suitor bits still read NO_SUITOR if Suitor did not run.
-    Pairing::from_partner_fn(n, |t| {
-        let c = choice[t];
-        if free(ranks[t]) {
-            suitor_partner(across, &ranks, t)
-        } else if c != NO_SUITOR {
-            twin_across(across, t, c) / 3
-        } else {
-            UNPAIRED
-        }
-    })
 }
 
-/// The ranks of a paired triangle in [`match_in_rounds`]: every side's rank 3, which
-/// no free triangle has.
-const TAKEN: u8 = 0x3f;
-
-/// The twin half-edge across side `side` of triangle `t`, read without a branch: a
-/// side past 2 ([`NO_SUITOR`]) reads side 2, and a side with no couple gives
-/// `u32::MAX`; the caller rules both out.
-#[inline]
-fn twin_across(across: &[u32], t: usize, side: u8) -> u32 {
-    across[3 * t + side.min(2) as usize].wrapping_sub(1)
-}
-
-/// [`match_by_side_ranks`]' value for "no suitor" (and the rank worse than all).
+/// [`propose`]'s state of a triangle with no suitor (and the rank worse than all).
 pub(super) const NO_SUITOR: u8 = 3;
 
 /// Suitor with whole keys: `offer[t]` is the key of `t`'s suitor's couple.
