@@ -221,6 +221,21 @@ impl EdgeKeys for VertexKeys<'_> {
         })
     }
 
+    type Entry = VertexHalfEdge;
+
+    #[inline]
+    fn entry(h: &VertexHalfEdge) -> VertexHalfEdge {
+        *h
+    }
+
+    fn block_half_edges<'a>(
+        &self,
+        entries: &'a [VertexHalfEdge],
+        _: &'a mut Vec<VertexHalfEdge>,
+    ) -> &'a [VertexHalfEdge] {
+        entries
+    }
+
     #[inline]
     fn block(&self, h: &VertexHalfEdge) -> usize {
         h.smaller as usize / BLOCK_VERTICES

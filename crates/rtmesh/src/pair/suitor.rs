@@ -28,7 +28,7 @@
 //! ([`match_in_rounds`]). Else keys are `u128`s from the pairing method, computed when
 //! a triangle proposes.
 //! Cost: O(T) time (O(E · max degree) proposals at worst, and O(L log L) for a run of
-//! L half-edges past the window); 12 or 16 bytes per half-edge for the blocks, 4 for
+//! L half-edges past the window); 12 or 4 bytes per half-edge for the blocks, 4 for
 //! the twins (then links) and 1 per triangle for the state.
 
 use super::{Pairing, UNPAIRED};
@@ -84,6 +84,18 @@ pub(super) trait EdgeKeys: Sync {
     fn side_ranks(&self, t: usize) -> Option<u8>;
     /// The half-edges of triangle `t`, one that takes part.
     fn half_edges(&self, t: usize) -> [Self::HalfEdge; 3];
+    /// What the write-out by block keeps of a half-edge: all of it, or less, from
+    /// which [`EdgeKeys::block_half_edges`] rebuilds it in cache.
+    type Entry: Copy + Send + Sync;
+    /// Half-edge `h`'s entry.
+    fn entry(h: &Self::HalfEdge) -> Self::Entry;
+    /// The half-edges of a block whose entries are `entries` (rebuilt into `rebuilt`,
+    /// where an entry is not the half-edge).
+    fn block_half_edges<'a>(
+        &self,
+        entries: &'a [Self::Entry],
+        rebuilt: &'a mut Vec<Self::HalfEdge>,
+    ) -> &'a [Self::HalfEdge];
     /// The block of half-edge `h`.
     fn block(&self, h: &Self::HalfEdge) -> usize;
     /// The run of half-edge `h` in its block, which has `runs` runs.
@@ -151,12 +163,14 @@ impl Couples {
     /// half-edges, so that earlier couples rank higher.
     ///
     /// Three passes. The first ranks every triangle's sides and counts its half-edges
-    /// per block; the second writes them out by block. The third takes a block at a
-    /// time, in cache: a counting sort on the run gathers each run's half-edges
-    /// (ascending ids), among which every edge's are found by comparing edges. Parts of
-    /// the triangles, then blocks, on the pool's threads. When `avx512` (which the CPU
-    /// must have: [`has_avx512_conflict`]), the first pass and the runs' search take the
-    /// kernels [`EdgeKeys::rank_and_count_avx512`] and
+    /// per block; the second writes them out by block ([`EdgeKeys::Entry`]: the
+    /// half-edge or its id, as this table is the one that leaves the cache; a
+    /// triangle's three take one read of each cursor, not three in a chain). The third
+    /// takes a block at a time, in cache: a counting sort on the run gathers each run's
+    /// half-edges (ascending ids), among which every edge's are found by comparing
+    /// edges. Parts of the triangles, then blocks, on the pool's threads. When `avx512`
+    /// (which the CPU must have: [`has_avx512_conflict`]), the first pass and the runs'
+    /// search take the kernels [`EdgeKeys::rank_and_count_avx512`] and
     /// [`EdgeKeys::couple_pairs_avx512`], where the keys have them.
     pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K, avx512: bool) -> Self {
         let n = triangle_count;
@@ -191,7 +205,7 @@ impl Couples {
         let block_start = part_cursors(&mut cursors, blocks);
         // Pass 2: write the half-edges out by block.
         let half_edge_count = block_start[blocks] as usize;
-        let mut entries: Vec<K::HalfEdge> = vec_on_huge_pages(half_edge_count);
+        let mut entries: Vec<K::Entry> = vec_on_huge_pages(half_edge_count);
         let destination = SharedSlice(entries.as_mut_ptr());
         let destination = &destination;
         side_ranks
@@ -203,12 +217,18 @@ impl Couples {
                     if r == EXCLUDED {
                         continue;
                     }
-                    for h in keys.half_edges(p * part_len + i) {
-                        let c = &mut cursor[keys.block(&h)];
+                    let h = keys.half_edges(p * part_len + i);
+                    let b = h.each_ref().map(|h| keys.block(h));
+                    let c = [
+                        cursor[b[0]],
+                        cursor[b[1]] + (b[1] == b[0]) as u32,
+                        cursor[b[2]] + (b[2] == b[0]) as u32 + (b[2] == b[1]) as u32,
+                    ];
+                    for k in 0..3 {
                         // SAFETY: the counts give every half-edge its own slot below
                         // `half_edge_count`.
-                        unsafe { destination.0.add(*c as usize).write(h) };
-                        *c += 1;
+                        unsafe { destination.0.add(c[k] as usize).write(K::entry(&h[k])) };
+                        cursor[b[k]] = c[k] + 1;
                     }
                 }
             });
@@ -221,9 +241,10 @@ impl Couples {
         let extras: Vec<Vec<ExtraCouple>> = (0..blocks)
             .into_par_iter()
             .fold(
-                || (Vec::new(), Vec::new(), Vec::new()),
-                |(mut extra, mut sorted, mut start), b| {
+                || (Vec::new(), Vec::new(), Vec::new(), Vec::new()),
+                |(mut extra, mut sorted, mut start, mut rebuilt), b| {
                     let block = &entries[block_start[b] as usize..block_start[b + 1] as usize];
+                    let block = keys.block_half_edges(block, &mut rebuilt);
                     let runs = keys.runs(b, block.len());
                     // Counting sort of the block on the run.
                     start.clear();
@@ -253,10 +274,10 @@ impl Couples {
                         },
                         _ => couple_runs::<K, false>(&sorted, ends, keys, destination, &mut extra),
                     }
-                    (extra, sorted, start)
+                    (extra, sorted, start, rebuilt)
                 },
             )
-            .map(|(extra, _, _)| extra)
+            .map(|(extra, ..)| extra)
             .collect();
         let mut extra = extras.concat();
         extra.sort_unstable_by_key(|e| e.triangle);
