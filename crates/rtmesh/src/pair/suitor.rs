@@ -862,7 +862,7 @@ fn match_in_rounds(links: &[u32], state: &mut [u8]) {
 }
 
 /// [`propose`]'s state of a triangle with no suitor (and the rank worse than all).
-pub(super) const NO_SUITOR: u8 = 3;
+const NO_SUITOR: u8 = 3;
 
 /// Suitor with whole keys: `offer[t]` is the key of `t`'s suitor's couple.
 fn match_by_keys(couples: &Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> Pairing {
