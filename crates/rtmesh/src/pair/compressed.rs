@@ -19,7 +19,7 @@
 //! the indexed route does (module `suitor`): the half-edges go to blocks by the cell
 //! of space their midpoint is in, and to runs within a block by a hash of their key;
 //! twins are the half-edges of one key in a run, and the Suitor algorithm (on several
-//! threads, the matching in rounds) finds the scan's matching. A block's triangles are
+//! threads, its parallel form) finds the scan's matching. A block's triangles are
 //! near each other in space, and so, in a scanned mesh's order, in memory: the corner
 //! check of each couple is done there, its reads prefetched as the block is sorted.
 //! Where the CPU has AVX-512, the keys are computed 16 triangles at a time

@@ -17,7 +17,7 @@
 //! the greedy matching is the unique locally dominant one. Cost: O(T + V) time; 12
 //! bytes per half-edge for the blocks, 4 for the twins, 1 per triangle for the
 //! matching. The twin search splits its work over the rayon pool's threads, and so
-//! does the matching when there is more than one (in rounds, module `suitor`).
+//! does the matching when there is more than one (parallel Suitor, module `suitor`).
 //!
 //! Two loops of the twin search are also written by hand in AVX-512 (F and CD), taken
 //! when the CPU has them (detected at run time): ranking the triangles' sides 16 at a

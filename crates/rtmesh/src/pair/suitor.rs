@@ -24,8 +24,8 @@
 //! listed in the order of each triangle's keys ([`link_by_rank`]), which carry the
 //! couple's rank at the other end: then a triangle's whole matching state is one byte,
 //! the rank of its suitor's couple, and a proposal reads one link and one byte at
-//! best ([`propose`]); on several threads the same matching is found in rounds
-//! ([`match_in_rounds`]). Else keys are `u128`s from the pairing method, computed when
+//! best ([`propose`]), which on several threads proposes from parts of the
+//! triangles at once, with atomic states. Else keys are `u128`s from the pairing method, computed when
 //! a triangle proposes.
 //! Cost: O(T) time (O(E · max degree) proposals at worst, and O(L log L) for a run of
 //! L half-edges past the window); 12 or 4 bytes per half-edge for the blocks, 4 for
@@ -35,6 +35,7 @@ use super::{Pairing, UNPAIRED};
 use crate::mesh::{part_cursors, triangle_part_len, SharedSlice};
 use crate::pages::{filled_on_huge_pages, vec_on_huge_pages};
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
 
 /// `Couples::across` value of a side whose edge has no couple (the slot's default).
 pub(super) const NO_COUPLE: u32 = 0;
@@ -667,15 +668,24 @@ pub(super) fn match_greedily(couples: Couples, side_keys: impl Fn(usize) -> [u12
     link_by_rank(&mut links, &state);
     state.fill(NO_SUITOR);
     if rayon::current_num_threads() > 1 {
-        match_in_rounds(&links, &mut state);
+        // SAFETY: `AtomicU8` has the size, alignment and bit validity of `u8`, and
+        // `state` is borrowed mutably for as long as `offers` lives.
+        let offers = unsafe { &*(state.as_mut_slice() as *mut [u8] as *const [AtomicU8]) };
+        let part_len = triangle_part_len(n);
+        (0..n.div_ceil(part_len)).into_par_iter().for_each(|p| {
+            propose(
+                &links,
+                &mut { offers },
+                p * part_len..n.min((p + 1) * part_len),
+            )
+        });
     } else {
-        propose(&links, &mut state, 0..n);
+        propose(&links, state.as_mut_slice(), 0..n);
     }
     Pairing::from_partner_fn(n, |t| suitor_partner(&links, &state, t))
 }
 
-/// A couple seen from one of its triangles, as [`propose`] and [`match_in_rounds`]
-/// read it: the triangle `v` at the other end, and the couple's rank among `v`'s
+/// A couple seen from one of its triangles, as [`propose`] reads it: the triangle `v` at the other end, and the couple's rank among `v`'s
 /// sides (0 for its largest key), as `v << 2 | rank`; or this, for a side with no
 /// couple (no link has rank 3).
 const NO_LINK: u32 = u32::MAX;
@@ -710,29 +720,84 @@ fn link_by_rank(across: &mut [u32], ranks: &[u8]) {
 /// `proposers` proposes in turn, then each triangle it displaces. Its sides' links
 /// are in the order of its keys, so it proposes across the first one whose triangle
 /// takes it: one whose suitor's couple has a larger rank there, or that has no
-/// suitor. `state[t]` is the rank in `t` of its suitor's couple, or [`NO_SUITOR`]:
-/// the rank names the side, and so the suitor, which is the triangle across it. All
-/// the state is one byte a triangle, and a proposal reads one link and one byte when
-/// its best couple is accepted (on the dragon, 10 ms where the rank comparisons of
-/// twins' sides took 20, one core).
-fn propose(links: &[u32], state: &mut [u8], proposers: impl IntoIterator<Item = usize>) {
+/// suitor. A triangle's offer is the rank in it of its suitor's couple, or
+/// [`NO_SUITOR`]: the rank names the side, and so the suitor, which is the triangle
+/// across it. All the state is one byte a triangle, and a proposal reads one link and
+/// one byte when its best couple is accepted (on the dragon, 10 ms where the rank
+/// comparisons of twins' sides took 20, one core).
+///
+/// On several threads, parts of the proposers go at once with [`AtomicU8`] offers
+/// (the parallel Suitor of Manne & Halappanavar): an offer is replaced only if it is
+/// still the one that was beaten, else the proposer reads it again. Offers only ever
+/// fall, so one read late still tells a refusal truly, and the matching is the one
+/// thread's.
+fn propose<S: Offers + ?Sized>(
+    links: &[u32],
+    offers: &mut S,
+    proposers: impl IntoIterator<Item = usize>,
+) {
     for first in proposers {
         let mut proposer = first;
-        while let Some(&best) = links[3 * proposer..3 * proposer + 3]
-            .iter()
-            .find(|&&l| l != NO_LINK && ((l & 3) as u8) < state[(l >> 2) as usize])
-        {
-            let v = (best >> 2) as usize;
-            let displaced = std::mem::replace(&mut state[v], (best & 3) as u8);
-            if displaced == NO_SUITOR {
-                break;
+        let mut side = 0;
+        while side < 3 {
+            let link = links[3 * proposer + side];
+            if link == NO_LINK {
+                side += 1;
+                continue;
             }
-            proposer = (links[3 * v + displaced as usize] >> 2) as usize;
+            let (v, rank) = ((link >> 2) as usize, (link & 3) as u8);
+            let offer = offers.offer(v);
+            if rank >= offer {
+                side += 1;
+            } else if offers.replace(v, offer, rank) {
+                if offer == NO_SUITOR {
+                    break;
+                }
+                proposer = (links[3 * v + offer as usize] >> 2) as usize;
+                side = 0;
+            }
         }
     }
 }
 
-/// Triangle `t`'s partner after [`propose`] (or [`match_in_rounds`]): its suitor, when
+/// The offers that [`propose`] reads and replaces, per triangle.
+trait Offers {
+    /// The rank in `v` of its suitor's couple, or [`NO_SUITOR`].
+    fn offer(&self, v: usize) -> u8;
+    /// Replace `v`'s offer `was` by `rank`, unless it is no longer `was` (then false).
+    fn replace(&mut self, v: usize, was: u8, rank: u8) -> bool;
+}
+
+impl Offers for [u8] {
+    #[inline(always)]
+    fn offer(&self, v: usize) -> u8 {
+        self[v]
+    }
+
+    #[inline(always)]
+    fn replace(&mut self, v: usize, _: u8, rank: u8) -> bool {
+        self[v] = rank;
+        true
+    }
+}
+
+/// Offers shared between threads; `Relaxed` suffices, as each offer is one atomic
+/// value and the threads' results meet when the pool joins.
+impl Offers for &[AtomicU8] {
+    #[inline(always)]
+    fn offer(&self, v: usize) -> u8 {
+        self[v].load(Relaxed)
+    }
+
+    #[inline(always)]
+    fn replace(&mut self, v: usize, was: u8, rank: u8) -> bool {
+        self[v]
+            .compare_exchange(was, rank, Relaxed, Relaxed)
+            .is_ok()
+    }
+}
+
+/// Triangle `t`'s partner after [`propose`]: its suitor, when
 /// it is its suitor's suitor. Read without a branch (clamped when t has no suitor).
 #[inline]
 fn suitor_partner(links: &[u32], state: &[u8], t: usize) -> u32 {
@@ -744,120 +809,6 @@ fn suitor_partner(links: &[u32], state: &[u8], t: usize) -> u32 {
         u as u32
     } else {
         UNPAIRED
-    }
-}
-
-/// [`propose`]'s matching on several threads, in rounds (the pointer algorithm of
-/// Manne & Bisseling, "A Parallel Approximation Algorithm for the Weighted Maximum
-/// Matching Problem", PPAM 2007). In a round, every free triangle points across its
-/// best side with a free neighbour; two triangles that point at each other are a
-/// pair, as their couple is the largest at both, which the greedy scan takes too. The
-/// free triangles that still have a free neighbour go again. A round is two passes
-/// over the triangles in play, split over the pool's threads: one writes the
-/// pointers, the next reads them and marks the pairs. The dragon takes 8 rounds over
-/// 1.6 × its triangles in all.
-///
-/// A pair is written as two triangles that are each other's suitors (`state`, which
-/// starts as [`NO_SUITOR`] for all). That is what Suitor leaves, and no free
-/// triangle has a couple that the pair's triangles would take instead: a couple
-/// larger than the pair's led to a triangle that was paired already.
-///
-/// A round pairs only the couples that are the largest at both ends, so along a chain
-/// of couples whose keys rise (the ring of a fan, whose spokes' areas rise with the
-/// angle) it pairs a few and the rounds grow as long as the chain: O(T²). So when a
-/// round keeps more than half of its triangles in play, the rest is left to Suitor on
-/// one thread, which finds the greedy matching of the triangles still in play; with
-/// the pairs found so far, that is the greedy matching of all.
-fn match_in_rounds(links: &[u32], state: &mut [u8]) {
-    let n = state.len();
-    // choice[t]: the rank in t of the couple that t points across this round, or
-    // NO_SUITOR.
-    let mut choice = vec![NO_SUITOR; n];
-    let point = |t: usize, state: &[u8]| {
-        (0..3)
-            .find(|&r| {
-                let link = links[3 * t + r];
-                link != NO_LINK && state[(link >> 2) as usize] == NO_SUITOR
-            })
-            .map_or(NO_SUITOR, |r| r as u8)
-    };
-    // Whether t and the triangle it points at point at each other (a pair), and
-    // whether t, pointing but unpaired, goes again.
-    let settle = |t: usize, choice: &[u8]| {
-        let c = choice[t];
-        let link = links[3 * t + c.min(2) as usize];
-        let u = ((link >> 2) as usize).min(n - 1);
-        let paired = (c != NO_SUITOR) & (choice[u] == (link & 3) as u8);
-        (paired, (c != NO_SUITOR) & !paired)
-    };
-    // Round 1, over all triangles; its survivors in parts, one per thread.
-    let part_len = triangle_part_len(n);
-    choice
-        .par_chunks_mut(part_len)
-        .enumerate()
-        .for_each(|(p, chunk)| {
-            for (i, c) in chunk.iter_mut().enumerate() {
-                *c = point(p * part_len + i, state);
-            }
-        });
-    let mut parts: Vec<Vec<u32>> = state
-        .par_chunks_mut(part_len)
-        .enumerate()
-        .map(|(p, chunk)| {
-            let mut part = Vec::with_capacity(chunk.len());
-            for (i, s) in chunk.iter_mut().enumerate() {
-                let t = p * part_len + i;
-                let (paired, again) = settle(t, &choice);
-                *s = if paired { choice[t] } else { NO_SUITOR };
-                if again {
-                    part.push(t as u32);
-                }
-            }
-            part
-        })
-        .collect();
-    let in_play = |parts: &[Vec<u32>]| parts.iter().map(Vec::len).sum::<usize>();
-    let (mut players, mut survivors) = (n, in_play(&parts));
-    while survivors > 0 && 2 * survivors <= players {
-        let destination = SharedSlice(choice.as_mut_ptr());
-        let destination = &destination;
-        let state_now = &*state;
-        parts.par_iter().for_each(|part| {
-            for &t in part {
-                // SAFETY: a triangle is in one part only.
-                unsafe {
-                    destination
-                        .0
-                        .add(t as usize)
-                        .write(point(t as usize, state_now))
-                };
-            }
-        });
-        let destination = SharedSlice(state.as_mut_ptr());
-        let destination = &destination;
-        let choice = &choice;
-        parts.par_iter_mut().for_each(|part| {
-            let mut kept = 0;
-            for i in 0..part.len() {
-                let t = part[i] as usize;
-                let (paired, again) = settle(t, choice);
-                if paired {
-                    // SAFETY: as above.
-                    unsafe { destination.0.add(t).write(choice[t]) };
-                }
-                part[kept] = t as u32;
-                kept += again as usize;
-            }
-            part.truncate(kept);
-        });
-        (players, survivors) = (survivors, in_play(&parts));
-    }
-    if survivors > 0 {
-        propose(
-            links,
-            state,
-            parts.into_iter().flatten().map(|t| t as usize),
-        );
     }
 }
 

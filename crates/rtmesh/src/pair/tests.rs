@@ -188,7 +188,7 @@ fn pool(threads: usize) -> rayon::ThreadPool {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(300))]
 
-    /// On one thread (the Suitor matching) and on two (the matching in rounds); with
+    /// On one thread (the Suitor matching) and on two (the parallel Suitor); with
     /// the scalar twin search and, where the CPU has it, the AVX-512 one.
     #[test]
     fn fast_greedy_equals_the_published_procedure(mesh in random_mesh()) {
@@ -492,9 +492,9 @@ fn assert_fast_routes_pair_like_the_references(
 
 /// A cylinder's caps are fans: each centre is the smaller vertex of a run of 2 × 60k
 /// half-edges, and the spokes' box areas rise with the angle over each quarter turn,
-/// a chain of couples that the matching in rounds would pair a few at a time. Both
-/// took O(T²) (minutes here); the long run is sorted by edge, and the rounds hand
-/// over to Suitor when they stall. Same pairing as the published procedure.
+/// a chain of couples that a matching in rounds (the pointer algorithm, which this
+/// route once took on several threads) pairs a few at a time. Both took O(T²)
+/// (minutes here); the long run is sorted by edge. Same pairing as the published procedure.
 #[test]
 fn long_fans_pair_like_the_published_procedure() {
     let mesh = crate::scenes::fan_cylinder(60_000);
