@@ -26,17 +26,20 @@
 //! (`Quantiser::keys_avx512`) and a run's twins are found in one vector (the
 //! `couple_pairs_avx512` of `PositionKeys`); the scalar loops are the reference.
 //! Cost: O(T) time; 12 bytes per half-edge for the keys, 4 for the blocks (ids), 4 for
-//! the twins.
+//! the links.
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
     edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes, twin_lanes,
     MAX_GATHER_VERTICES,
 };
-use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
+use super::suitor::{
+    has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
+    Links, MAX_LINKED_TRIANGLES,
+};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::geom::Aabb;
-use crate::mesh::{triangle_part_len, SharedSlice, TriMesh};
+use crate::mesh::{triangle_part_len, TriMesh};
 use crate::pages::vec_on_huge_pages;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -48,7 +51,8 @@ const FIELD_BITS: u32 = 24;
 const FIELD_MAX: f32 = ((1u32 << FIELD_BITS) - 1) as f32;
 
 /// Greedy pairing keyed by position: vertex indices are used only to read corners.
-/// The same pairing as [`pair_sah_compressed_reference`].
+/// The same pairing as [`pair_sah_compressed_reference`] (which meshes past 2³⁰
+/// triangles take).
 pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
     pair_sah_compressed_with(mesh, has_avx512_conflict())
 }
@@ -56,6 +60,9 @@ pub fn pair_sah_compressed(mesh: &TriMesh) -> Pairing {
 /// [`pair_sah_compressed`], with the AVX-512 keys when `avx512` (which the CPU must
 /// have) or the scalar keys (the reference that tests hold them to).
 pub(super) fn pair_sah_compressed_with(mesh: &TriMesh, avx512: bool) -> Pairing {
+    if mesh.triangle_count() > MAX_LINKED_TRIANGLES {
+        return pair_sah_compressed_reference(mesh);
+    }
     let keys = PositionKeys::new(mesh, avx512);
     let couples = Couples::link(mesh.triangle_count(), &keys, avx512);
     match_greedily(couples, |t| {
@@ -372,7 +379,7 @@ impl EdgeKeys for PositionKeys<'_> {
     }
 
     #[inline]
-    fn half_edges(&self, t: usize) -> [PositionHalfEdge; 3] {
+    fn half_edges(&self, t: usize, _: u8) -> [PositionHalfEdge; 3] {
         std::array::from_fn(|k| PositionHalfEdge {
             key: self.keys[3 * t + k],
             id: (3 * t + k) as u32,
@@ -489,11 +496,7 @@ impl EdgeKeys for PositionKeys<'_> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512cd")]
     #[inline]
-    unsafe fn couple_pairs_avx512(
-        &self,
-        run: &[PositionHalfEdge],
-        destination: &SharedSlice<u32>,
-    ) -> Option<bool> {
+    unsafe fn couple_pairs_avx512(&self, run: &[PositionHalfEdge], links: &Links) -> Option<bool> {
         use std::arch::x86_64::*;
         debug_assert!(run.len() <= 16);
         let [high, middle, low, _] = load_records::<4>(run.as_ptr() as *const i32, run.len());
@@ -522,8 +525,8 @@ impl EdgeKeys for PositionKeys<'_> {
             couples &= couples - 1;
             let (e, twin) = (run[l], run[twin_of[l] as usize]);
             if self.may_couple(&twin, &e) {
-                destination.0.add(e.id as usize).write(twin.id + 1);
-                destination.0.add(twin.id as usize).write(e.id + 1);
+                links.write(&e, &twin);
+                links.write(&twin, &e);
             }
         }
         Some(true)
@@ -575,15 +578,21 @@ impl HalfEdge for PositionHalfEdge {
     }
 
     #[inline]
-    fn id(&self) -> u32 {
-        self.id
+    fn triangle(&self) -> u32 {
+        self.id / 3
+    }
+
+    #[inline]
+    fn rank(&self, ranks: &[u8]) -> u32 {
+        rank_of_side(ranks[(self.id / 3) as usize], self.id % 3)
     }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::suitor::NO_COUPLE;
+    use super::super::suitor::NO_LINK;
     use super::*;
+    use crate::mesh::SharedSlice;
 
     /// The run kernel couples two half-edges only when their keys are equal, not just
     /// their signatures: two of the quad's shared edge, keyed apart with one signature,
@@ -613,19 +622,26 @@ mod tests {
         };
         twin_in_signature.key[2] = signature(first.key) ^ signature(twin_in_signature.key);
         assert_eq!(signature(twin_in_signature.key), signature(first.key));
+        let ranks = [0, 1].map(|t| keys.side_ranks(t).unwrap());
         let search = |run: &[PositionHalfEdge]| {
-            let mut across = vec![NO_COUPLE; 6];
-            let destination = SharedSlice(across.as_mut_ptr());
+            let mut across = vec![NO_LINK; 6];
+            let links = Links {
+                across: SharedSlice(across.as_mut_ptr()),
+                ranks: &ranks,
+            };
             // SAFETY: the CPU has the features; `across` is this thread's.
-            let coupled = unsafe { keys.couple_pairs_avx512(run, &destination) };
+            let coupled = unsafe { keys.couple_pairs_avx512(run, &links) };
             (coupled, across)
         };
-        let mut expected = vec![NO_COUPLE; 6];
-        (expected[1], expected[3]) = (3 + 1, 1 + 1);
+        // Each side's slot is its rank's, and names the other triangle and its rank.
+        let [rank_first, rank_second] = [rank_of_side(ranks[0], 1), rank_of_side(ranks[1], 0)];
+        let mut expected = vec![NO_LINK; 6];
+        expected[rank_first as usize] = 1 << 2 | rank_second;
+        expected[3 + rank_second as usize] = rank_first;
         assert_eq!(search(&[first, second]), (Some(true), expected));
         assert_eq!(
             search(&[first, twin_in_signature]),
-            (Some(false), vec![NO_COUPLE; 6])
+            (Some(false), vec![NO_LINK; 6])
         );
     }
 }

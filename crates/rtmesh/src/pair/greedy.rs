@@ -15,7 +15,7 @@
 //! instead of sorting the couples and scanning them, the Suitor algorithm finds the
 //! same matching: the scan's order is a strict total order on couples, and under one
 //! the greedy matching is the unique locally dominant one. Cost: O(T + V) time; 12
-//! bytes per half-edge for the blocks, 4 for the twins, 1 per triangle for the
+//! bytes per half-edge for the blocks, 4 for the links, 1 per triangle for the
 //! matching. The twin search splits its work over the rayon pool's threads, and so
 //! does the matching when there is more than one (parallel Suitor, module `suitor`).
 //!
@@ -31,9 +31,12 @@ use super::suitor::{
     edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes, twin_lanes,
     MAX_GATHER_VERTICES,
 };
-use super::suitor::{has_avx512_conflict, match_greedily, side_ranks, Couples, EdgeKeys, HalfEdge};
+use super::suitor::{
+    has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
+    Links, MAX_LINKED_TRIANGLES,
+};
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
-use crate::mesh::{has_edges, SharedSlice, TriMesh};
+use crate::mesh::{has_edges, TriMesh};
 
 /// One record of the paper's half-edge table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -132,7 +135,7 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
 
 /// The same pairing as [`pair_sah_reference`], fast: twins found by blocks of vertices,
 /// then the Suitor algorithm instead of a sort and a scan. (Meshes past the fast
-/// route's index limits, 2³¹ − 1 vertices or 2³² half-edges, take the reference.)
+/// route's index limits, 2³¹ − 1 vertices or 2³⁰ triangles, take the reference.)
 ///
 /// A couple's key is `[BBSA bits, first vertex, second vertex, rank on its edge]`
 /// (most significant first): the table's sort key, and for the couples of one edge of
@@ -145,7 +148,7 @@ pub fn pair_sah(mesh: &TriMesh) -> Pairing {
 /// [`pair_sah`], with the twin search's AVX-512 kernels when `avx512` (which the CPU
 /// must have) or its scalar loops (the reference that tests hold the kernels to).
 pub(super) fn pair_sah_with(mesh: &TriMesh, avx512: bool) -> Pairing {
-    if mesh.positions.len() > MAX_VERTICES || 3 * mesh.triangle_count() > u32::MAX as usize {
+    if mesh.positions.len() > MAX_VERTICES || mesh.triangle_count() > MAX_LINKED_TRIANGLES {
         return pair_sah_reference(mesh);
     }
     let keys = VertexKeys { mesh };
@@ -209,14 +212,14 @@ impl EdgeKeys for VertexKeys<'_> {
     }
 
     #[inline]
-    fn half_edges(&self, t: usize) -> [VertexHalfEdge; 3] {
+    fn half_edges(&self, t: usize, ranks: u8) -> [VertexHalfEdge; 3] {
         let tri = self.mesh.triangles[t];
         std::array::from_fn(|k| {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
             VertexHalfEdge {
                 smaller: a.min(b),
                 other: a.max(b) | if a < b { VertexHalfEdge::FORWARD } else { 0 },
-                id: (3 * t + k) as u32,
+                link: (t as u32) << 2 | rank_of_side(ranks, k as u32),
             }
         })
     }
@@ -265,22 +268,19 @@ impl EdgeKeys for VertexKeys<'_> {
     /// more half-edges (declined: `couple_run` takes the run). A lane with one is the
     /// second half-edge of an edge of two; its twin's lane is the bit's index. Both
     /// ends of each such couple are scattered into `across`, when the two run opposite
-    /// ways ([`EdgeKeys::may_couple`]). The scalar window compares every lane with
+    /// ways ([`EdgeKeys::may_couple`]): each half-edge carries its link, which is what
+    /// its twin's slot takes, and its own slot, `3t + rank`, is `link - t`. The scalar window compares every lane with
     /// every other (16 × run length compares) and writes every lane; this is about
     /// twenty instructions a run, and the dragon's 437k runs (6 half-edges long on average)
     /// take 12 ms, not 23 (one core).
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,avx512cd")]
     #[inline]
-    unsafe fn couple_pairs_avx512(
-        &self,
-        run: &[VertexHalfEdge],
-        destination: &SharedSlice<u32>,
-    ) -> Option<bool> {
+    unsafe fn couple_pairs_avx512(&self, run: &[VertexHalfEdge], links: &Links) -> Option<bool> {
         use std::arch::x86_64::*;
         debug_assert!(run.len() <= 16);
         let lane_mask = ((1u32 << run.len()) - 1) as __mmask16;
-        let [_, other, id] = load_records::<3>(run.as_ptr() as *const i32, run.len());
+        let [_, other, link] = load_records::<3>(run.as_ptr() as *const i32, run.len());
         // Spare lanes get an edge that no half-edge has.
         let other = _mm512_mask_blend_epi32(
             lane_mask,
@@ -292,16 +292,16 @@ impl EdgeKeys for VertexKeys<'_> {
             return Some(false);
         };
         let twin_other = _mm512_permutexvar_epi32(twin_lane, other);
-        let twin_id = _mm512_permutexvar_epi32(twin_lane, id);
+        let twin_link = _mm512_permutexvar_epi32(twin_lane, link);
         let opposite = _mm512_mask_test_epi32_mask(
             second,
             _mm512_xor_epi32(other, twin_other),
             _mm512_set1_epi32(VertexHalfEdge::FORWARD as i32),
         );
-        let one = _mm512_set1_epi32(1);
-        let across = destination.0 as *mut i32;
-        _mm512_mask_i32scatter_epi32::<4>(across, opposite, id, _mm512_add_epi32(twin_id, one));
-        _mm512_mask_i32scatter_epi32::<4>(across, opposite, twin_id, _mm512_add_epi32(id, one));
+        let slot = |link| _mm512_sub_epi32(link, _mm512_srli_epi32::<2>(link));
+        let across = links.across.0 as *mut i32;
+        _mm512_mask_i32scatter_epi32::<4>(across, opposite, slot(link), twin_link);
+        _mm512_mask_i32scatter_epi32::<4>(across, opposite, slot(twin_link), link);
         Some(true)
     }
 
@@ -356,8 +356,9 @@ struct VertexHalfEdge {
     smaller: u32,
     /// The larger vertex; the top bit is set when the half-edge runs from the smaller.
     other: u32,
-    /// The half-edge (`3t + k`).
-    id: u32,
+    /// The link to its side (its triangle and the side's rank, as [`NO_LINK`]
+    /// describes).
+    link: u32,
 }
 
 impl VertexHalfEdge {
@@ -382,8 +383,13 @@ impl HalfEdge for VertexHalfEdge {
     }
 
     #[inline]
-    fn id(&self) -> u32 {
-        self.id
+    fn triangle(&self) -> u32 {
+        self.link >> 2
+    }
+
+    #[inline]
+    fn rank(&self, _: &[u8]) -> u32 {
+        self.link & 3
     }
 }
 

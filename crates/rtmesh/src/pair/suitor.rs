@@ -20,16 +20,16 @@
 //! triangles' sides and searching a run, take a pairing method's own AVX-512 kernels
 //! where it has them and the CPU too ([`EdgeKeys::rank_and_count_avx512`],
 //! [`EdgeKeys::couple_pairs_avx512`]); the scalar loops are the reference the tests
-//! hold them to. When no edge has more than two half-edges, the twins become links
-//! listed in the order of each triangle's keys ([`link_by_rank`]), which carry the
-//! couple's rank at the other end: then a triangle's whole matching state is one byte,
-//! the rank of its suitor's couple, and a proposal reads one link and one byte at
-//! best ([`propose`]), which on several threads proposes from parts of the
-//! triangles at once, with atomic states. Else keys are `u128`s from the pairing method, computed when
-//! a triangle proposes.
+//! hold them to. Twins are written as links ([`Links`]), listed in the order of each
+//! triangle's keys, which carry the couple's rank at the other end. When no edge has
+//! more than two half-edges, a triangle's whole matching state is then one byte, the
+//! rank of its suitor's couple, and a proposal reads one link and one byte at best
+//! ([`propose`]), which on several threads proposes from parts of the triangles at
+//! once, with atomic states. Else keys are `u128`s from the pairing method, computed
+//! when a triangle proposes.
 //! Cost: O(T) time (O(E · max degree) proposals at worst, and O(L log L) for a run of
 //! L half-edges past the window); 12 or 4 bytes per half-edge for the blocks, 4 for
-//! the twins (then links) and 1 per triangle for the state.
+//! the links and 1 per triangle for the state.
 
 use super::{Pairing, UNPAIRED};
 use crate::mesh::{part_cursors, triangle_part_len, SharedSlice};
@@ -37,15 +37,22 @@ use crate::pages::{filled_on_huge_pages, vec_on_huge_pages};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU8, Ordering::Relaxed};
 
-/// `Couples::across` value of a side whose edge has no couple (the slot's default).
-pub(super) const NO_COUPLE: u32 = 0;
-/// `Couples::across` value of a side whose edge has three or more half-edges: its
-/// couples are in [`Couples::extra`].
-const SHARED_BY_MORE: u32 = u32::MAX;
+/// A couple seen from one of its triangles, as [`Couples::across`] lists it: the
+/// triangle `v` at the other end, and the couple's rank among `v`'s sides (0 for its
+/// largest key), as `v << 2 | rank`; or this, for a side with no couple (no link has
+/// rank 3).
+pub(super) const NO_LINK: u32 = u32::MAX;
+/// [`Couples::across`] value of a side whose edge has three or more half-edges: its
+/// couples are in [`Couples::extra`] (rank 3, so no link, and not [`NO_LINK`]).
+const SHARED_BY_MORE: u32 = !4;
+/// The most triangles that links name.
+pub(super) const MAX_LINKED_TRIANGLES: usize = 1 << 30;
 /// The couples (pairable neighbours across an edge) of every triangle.
 pub(super) struct Couples {
-    /// For half-edge `3t + k` (side `k` of triangle `t`): 1 + its twin, the half-edge
-    /// of the triangle it couples with; or [`NO_COUPLE`] or [`SHARED_BY_MORE`].
+    /// Slot `3t + j` of triangle `t` is its side of rank `j`'s: the link to the
+    /// triangle across it (as [`NO_LINK`] describes), or [`NO_LINK`] or [`SHARED_BY_MORE`]. Sides with no couple may tie
+    /// in rank (and share a slot, leaving one [`NO_LINK`]); sides with one may not, as
+    /// their key is their edge's.
     across: Vec<u32>,
     /// The couples on edges of three or more half-edges, once from each triangle,
     /// sorted by triangle.
@@ -66,8 +73,17 @@ pub(super) trait HalfEdge: Copy + Default + Send + Sync {
     const WINDOW: usize;
     /// The half-edge's edge.
     fn edge(&self) -> Self::Edge;
-    /// The half-edge (`3t + k`).
-    fn id(&self) -> u32;
+    /// The half-edge's triangle.
+    fn triangle(&self) -> u32;
+    /// The rank of its side's key among its triangle's three (0 for the largest), read
+    /// from `ranks` (the bytes of [`Couples::side_ranks`]) where the half-edge does not
+    /// carry it.
+    fn rank(&self, ranks: &[u8]) -> u32;
+    /// The link to this half-edge's side, as [`NO_LINK`] describes it.
+    #[inline]
+    fn link(&self, ranks: &[u8]) -> u32 {
+        self.triangle() << 2 | self.rank(ranks)
+    }
 }
 
 /// How a pairing method keys the half-edges for [`Couples::link`]: blocks of runs, such
@@ -80,11 +96,12 @@ pub(super) trait EdgeKeys: Sync {
     fn blocks(&self) -> usize;
     /// How many runs block `b`, of `len` half-edges, has.
     fn runs(&self, b: usize, len: usize) -> usize;
-    /// The ranks of triangle `t`'s sides' keys (as in [`Couples::side_ranks`], without
-    /// the suitor bits), or `None` for a triangle that takes no part.
+    /// The ranks of triangle `t`'s sides' keys (as in [`Couples::side_ranks`]), or
+    /// `None` for a triangle that takes no part.
     fn side_ranks(&self, t: usize) -> Option<u8>;
-    /// The half-edges of triangle `t`, one that takes part.
-    fn half_edges(&self, t: usize) -> [Self::HalfEdge; 3];
+    /// The half-edges of triangle `t`, one that takes part, whose sides' ranks are
+    /// `ranks`.
+    fn half_edges(&self, t: usize, ranks: u8) -> [Self::HalfEdge; 3];
     /// What the write-out by block keeps of a half-edge: all of it, or less, from
     /// which [`EdgeKeys::block_half_edges`] rebuilds it in cache.
     type Entry: Copy + Send + Sync;
@@ -112,17 +129,13 @@ pub(super) trait EdgeKeys: Sync {
     #[inline]
     fn prefetch_couple(&self, _h: &Self::HalfEdge, _stage: u32) {}
     /// [`couple_pairs`] for a run of at most 16 half-edges in AVX-512 registers, for
-    /// keys that have such a kernel (else `None`). It may leave a side with no couple
-    /// unwritten ([`NO_COUPLE`] is where `across` starts).
+    /// keys that have such a kernel (else `None`), which writes the links of the
+    /// couples it finds only.
     ///
     /// # Safety
     /// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]); as [`couple_pairs`],
-    /// the run's slots in `destination` are this thread's.
-    unsafe fn couple_pairs_avx512(
-        &self,
-        _run: &[Self::HalfEdge],
-        _destination: &SharedSlice<u32>,
-    ) -> Option<bool> {
+    /// the run's slots in `links` are this thread's.
+    unsafe fn couple_pairs_avx512(&self, _run: &[Self::HalfEdge], _links: &Links) -> Option<bool> {
         None
     }
     /// The first pass of [`Couples::link`] in AVX-512, for keys that have such a
@@ -145,6 +158,12 @@ pub(super) trait EdgeKeys: Sync {
 
 /// The longest fixed window of [`couple_pairs`].
 const MAX_WINDOW: usize = 16;
+
+/// The rank of side `k` in a triangle's rank byte `ranks`.
+#[inline]
+pub(super) fn rank_of_side(ranks: u8, k: u32) -> u32 {
+    (ranks as u32 >> (2 * k)) & 3
+}
 
 /// The rank byte of a triangle whose sides have keys `keys`.
 #[inline]
@@ -194,7 +213,7 @@ impl Couples {
                     let t = p * part_len + i;
                     if let Some(rank) = keys.side_ranks(t) {
                         *r = rank;
-                        for h in &keys.half_edges(t) {
+                        for h in &keys.half_edges(t, rank) {
                             count[keys.block(h)] += 1;
                         }
                     }
@@ -218,7 +237,7 @@ impl Couples {
                     if r == EXCLUDED {
                         continue;
                     }
-                    let h = keys.half_edges(p * part_len + i);
+                    let h = keys.half_edges(p * part_len + i, r);
                     let b = h.each_ref().map(|h| keys.block(h));
                     let c = [
                         cursor[b[0]],
@@ -236,9 +255,12 @@ impl Couples {
         // SAFETY: the cursors covered every slot exactly once.
         unsafe { entries.set_len(half_edge_count) };
         // Pass 3: the blocks.
-        let mut across = filled_on_huge_pages(3 * n, NO_COUPLE);
-        let destination = SharedSlice(across.as_mut_ptr());
-        let destination = &destination;
+        let mut across = filled_on_huge_pages(3 * n, NO_LINK);
+        let links = Links {
+            across: SharedSlice(across.as_mut_ptr()),
+            ranks: &side_ranks,
+        };
+        let links = &links;
         let extras: Vec<Vec<ExtraCouple>> = (0..blocks)
             .into_par_iter()
             .fold(
@@ -271,9 +293,9 @@ impl Couples {
                         // SAFETY: `avx512` says the CPU has the features.
                         #[cfg(target_arch = "x86_64")]
                         true => unsafe {
-                            couple_runs_avx512(&sorted, ends, keys, destination, &mut extra)
+                            couple_runs_avx512(&sorted, ends, keys, links, &mut extra)
                         },
-                        _ => couple_runs::<K, false>(&sorted, ends, keys, destination, &mut extra),
+                        _ => couple_runs::<K, false>(&sorted, ends, keys, links, &mut extra),
                     }
                     (extra, sorted, start, rebuilt)
                 },
@@ -507,15 +529,15 @@ fn couple_runs<K: EdgeKeys, const AVX512: bool>(
     sorted: &[K::HalfEdge],
     ends: &[u32],
     keys: &K,
-    destination: &SharedSlice<u32>,
+    links: &Links,
     extra: &mut Vec<ExtraCouple>,
 ) {
     let mut from = 0;
     for &end in ends {
         let run = &sorted[from..end as usize];
         from = end as usize;
-        if !couple_pairs::<K, AVX512>(run, keys, destination) {
-            couple_run(run, keys, destination, extra);
+        if !couple_pairs::<K, AVX512>(run, keys, links) {
+            couple_run(run, keys, links, extra);
         }
     }
 }
@@ -531,27 +553,28 @@ unsafe fn couple_runs_avx512<K: EdgeKeys>(
     sorted: &[K::HalfEdge],
     ends: &[u32],
     keys: &K,
-    destination: &SharedSlice<u32>,
+    links: &Links,
     extra: &mut Vec<ExtraCouple>,
 ) {
-    couple_runs::<K, true>(sorted, ends, keys, destination, extra);
+    couple_runs::<K, true>(sorted, ends, keys, links, extra);
 }
 
 /// Couple the half-edges of one run when it is at most [`HalfEdge::WINDOW`] long and
-/// every edge in it has at most two: two on one edge couple when they may. Returns
-/// false, having written nothing that [`couple_run`] will not overwrite, otherwise.
+/// every edge in it has at most two: two on one edge couple when they may, and their
+/// links are written. Returns false, having written nothing that [`couple_run`] will
+/// not write again, otherwise.
 /// When `AVX512` (which the CPU must have), a half-edge's own kernel runs instead
 /// where it has one.
 #[inline(always)]
 fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
     run: &[K::HalfEdge],
     keys: &K,
-    destination: &SharedSlice<u32>,
+    links: &Links,
 ) -> bool {
     type H<K> = <K as EdgeKeys>::HalfEdge;
     if AVX512 && run.len() <= 16 {
         // SAFETY: AVX512 is set only when the CPU has the features.
-        if let Some(coupled) = unsafe { keys.couple_pairs_avx512(run, destination) } {
+        if let Some(coupled) = unsafe { keys.couple_pairs_avx512(run, links) } {
             return coupled;
         }
     }
@@ -576,37 +599,37 @@ fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
         let one_other = (others != 0) & (others & others.wrapping_sub(1) == 0);
         at_most_two &= others & others.wrapping_sub(1) == 0;
         let other = run[(others.trailing_zeros() as usize).min(run.len() - 1)];
-        let linked = one_other && keys.may_couple(&other, e);
-        let across = if linked { other.id() + 1 } else { NO_COUPLE };
-        // SAFETY: the run's half-edges are written by this thread only.
-        unsafe { destination.0.add(e.id() as usize).write(across) };
+        if one_other && keys.may_couple(&other, e) {
+            // SAFETY: the run's half-edges are written by this thread only.
+            unsafe { links.write(e, &other) };
+        }
     }
     at_most_two
 }
 
-/// Write the couples of a whole run into `across` (through `destination`) and
-/// `extra`, as [`Couples::link`] describes. The run's half-edges are sorted by edge
+/// Write the couples of a whole run into `links` and `extra`, as [`Couples::link`]
+/// describes. The run's half-edges are sorted by edge
 /// (a stable sort: each edge's stay in id order), so that a long run (a fan's centre
 /// is the smaller vertex of thousands of edges) costs O(L log L), not O(L²).
 fn couple_run<K: EdgeKeys>(
     run: &[K::HalfEdge],
     keys: &K,
-    destination: &SharedSlice<u32>,
+    links: &Links,
     extra: &mut Vec<ExtraCouple>,
 ) {
-    let write = |i: usize, across: u32| {
-        // SAFETY: the run's half-edges are written by this thread only.
-        unsafe { destination.0.add(run[i].id() as usize).write(across) };
-    };
     let mut by_edge: Vec<usize> = (0..run.len()).collect();
     by_edge.sort_by_key(|&i| run[i].edge());
     for on_edge in by_edge.chunk_by(|&a, &b| run[a].edge() == run[b].edge()) {
         match *on_edge {
-            [i] => write(i, NO_COUPLE),
+            [_] => {}
             [i, j] => {
-                let coupled = keys.may_couple(&run[i], &run[j]);
-                write(i, if coupled { run[j].id() + 1 } else { NO_COUPLE });
-                write(j, if coupled { run[i].id() + 1 } else { NO_COUPLE });
+                if keys.may_couple(&run[i], &run[j]) {
+                    // SAFETY: the run's half-edges are written by this thread only.
+                    unsafe {
+                        links.write(&run[i], &run[j]);
+                        links.write(&run[j], &run[i]);
+                    }
+                }
             }
             _ => {
                 let extra_before = extra.len();
@@ -614,7 +637,7 @@ fn couple_run<K: EdgeKeys>(
                 for (rank, w) in on_edge.windows(2).enumerate() {
                     if keys.may_couple(&run[w[0]], &run[w[1]]) {
                         let key = keys.extra_key(first, (on_edge.len() - 1 - rank) as u32);
-                        let (a, b) = (run[w[0]].id() / 3, run[w[1]].id() / 3);
+                        let (a, b) = (run[w[0]].triangle(), run[w[1]].triangle());
                         extra.push(ExtraCouple {
                             triangle: a,
                             neighbour: b,
@@ -628,16 +651,46 @@ fn couple_run<K: EdgeKeys>(
                     }
                 }
                 // Sides on an edge of only unpairable half-edges have no couple.
-                let mark = if extra.len() > extra_before {
-                    SHARED_BY_MORE
-                } else {
-                    NO_COUPLE
-                };
-                for &j in on_edge {
-                    write(j, mark);
+                if extra.len() > extra_before {
+                    for &j in on_edge {
+                        // SAFETY: as above.
+                        unsafe { links.mark_shared(&run[j]) };
+                    }
                 }
             }
         }
+    }
+}
+
+/// Where [`Couples::link`] writes the couples it finds: [`Couples::across`], through a
+/// pointer that the blocks' threads share, and the side ranks that place and name the
+/// links.
+pub(super) struct Links<'a> {
+    /// [`Couples::across`].
+    pub(super) across: SharedSlice<u32>,
+    /// [`Couples::side_ranks`].
+    pub(super) ranks: &'a [u8],
+}
+
+impl Links<'_> {
+    /// Link `from`'s side to `to`'s.
+    ///
+    /// # Safety
+    /// `from`'s slot is this thread's.
+    #[inline]
+    pub(super) unsafe fn write<H: HalfEdge>(&self, from: &H, to: &H) {
+        let slot = 3 * from.triangle() as usize + from.rank(self.ranks) as usize;
+        self.across.0.add(slot).write(to.link(self.ranks));
+    }
+
+    /// Mark `h`'s side as on an edge of three or more half-edges.
+    ///
+    /// # Safety
+    /// As [`Links::write`].
+    #[inline]
+    unsafe fn mark_shared<H: HalfEdge>(&self, h: &H) {
+        let slot = 3 * h.triangle() as usize + h.rank(self.ranks) as usize;
+        self.across.0.add(slot).write(SHARED_BY_MORE);
     }
 }
 
@@ -657,15 +710,15 @@ struct ExtraCouple {
 /// that is not [`SHARED_BY_MORE`]). Keys must be distinct between couples and above 0.
 pub(super) fn match_greedily(couples: Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> Pairing {
     let n = couples.side_ranks.len();
-    if !couples.extra.is_empty() || n > MAX_LINKED_TRIANGLES {
+    debug_assert!(n <= MAX_LINKED_TRIANGLES);
+    if !couples.extra.is_empty() {
         return match_by_keys(&couples, side_keys);
     }
     let Couples {
-        across: mut links,
+        across: links,
         side_ranks: mut state,
         ..
     } = couples;
-    link_by_rank(&mut links, &state);
     state.fill(NO_SUITOR);
     if rayon::current_num_threads() > 1 {
         // SAFETY: `AtomicU8` has the size, alignment and bit validity of `u8`, and
@@ -683,37 +736,6 @@ pub(super) fn match_greedily(couples: Couples, side_keys: impl Fn(usize) -> [u12
         propose(&links, state.as_mut_slice(), 0..n);
     }
     Pairing::from_partner_fn(n, |t| suitor_partner(&links, &state, t))
-}
-
-/// A couple seen from one of its triangles, as [`propose`] reads it: the triangle `v` at the other end, and the couple's rank among `v`'s
-/// sides (0 for its largest key), as `v << 2 | rank`; or this, for a side with no
-/// couple (no link has rank 3).
-const NO_LINK: u32 = u32::MAX;
-/// The most triangles that links name.
-const MAX_LINKED_TRIANGLES: usize = 1 << 30;
-
-/// Turn `across` (twins; [`Couples::extra`] is empty) into links in place, on the
-/// pool's threads: each triangle's three in the order of its `ranks` (its best couple
-/// first; sides with no couple may tie, sides with one may not, as their key is their
-/// edge's). Twin `3v + j` becomes `v << 2` and the rank of side `j` in `v`'s ranks.
-fn link_by_rank(across: &mut [u32], ranks: &[u8]) {
-    let part_len = triangle_part_len(ranks.len());
-    across
-        .par_chunks_mut(3 * part_len)
-        .zip(ranks.par_chunks(part_len))
-        .for_each(|(part, own_ranks)| {
-            for (sides, &own) in part.chunks_exact_mut(3).zip(own_ranks) {
-                let twins = [sides[0], sides[1], sides[2]];
-                sides.fill(NO_LINK);
-                for (k, twin) in twins.into_iter().enumerate() {
-                    if twin != NO_COUPLE {
-                        let (v, j) = ((twin - 1) / 3, (twin - 1) % 3);
-                        let rank_there = (ranks[v as usize] >> (2 * j)) & 3;
-                        sides[((own >> (2 * k)) & 3) as usize] = v << 2 | rank_there as u32;
-                    }
-                }
-            }
-        });
 }
 
 /// Suitor when every couple is across a side ([`Couples::extra`] is empty): each of
@@ -825,19 +847,21 @@ fn match_by_keys(couples: &Couples, side_keys: impl Fn(usize) -> [u128; 3]) -> P
         let mut proposer = first;
         loop {
             let (mut best_key, mut best) = (0u128, usize::MAX);
-            let across: [u32; 3] = std::array::from_fn(|k| couples.across[3 * proposer + k]);
-            let coupled = across.map(|a| a != NO_COUPLE && a != SHARED_BY_MORE);
+            let across: [u32; 3] = std::array::from_fn(|j| couples.across[3 * proposer + j]);
+            let coupled = across.map(|a| a != NO_LINK && a != SHARED_BY_MORE);
             if coupled.contains(&true) {
+                // Slot j's key is the j-th largest: a side with a couple ties with none.
+                let mut keys = side_keys(proposer);
+                keys.sort_unstable_by(|a, b| b.cmp(a));
                 // Selects rather than branches: which side wins is a coin toss.
-                let keys = side_keys(proposer);
-                for k in 0..3 {
-                    let v = if coupled[k] {
-                        ((across[k] - 1) / 3) as usize
+                for j in 0..3 {
+                    let v = if coupled[j] {
+                        (across[j] >> 2) as usize
                     } else {
                         proposer
                     };
-                    let better = coupled[k] & (keys[k] > offer[v]) & (keys[k] > best_key);
-                    best_key = if better { keys[k] } else { best_key };
+                    let better = coupled[j] & (keys[j] > offer[v]) & (keys[j] > best_key);
+                    best_key = if better { keys[j] } else { best_key };
                     best = if better { v } else { best };
                 }
             }
