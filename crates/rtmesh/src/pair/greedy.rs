@@ -28,8 +28,8 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes, twin_lanes,
-    MAX_GATHER_VERTICES,
+    edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes,
+    scatter_links_avx512, twin_lanes, MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
@@ -292,16 +292,12 @@ impl EdgeKeys for VertexKeys<'_> {
             return Some(false);
         };
         let twin_other = _mm512_permutexvar_epi32(twin_lane, other);
-        let twin_link = _mm512_permutexvar_epi32(twin_lane, link);
         let opposite = _mm512_mask_test_epi32_mask(
             second,
             _mm512_xor_epi32(other, twin_other),
             _mm512_set1_epi32(VertexHalfEdge::FORWARD as i32),
         );
-        let slot = |link| _mm512_sub_epi32(link, _mm512_srli_epi32::<2>(link));
-        let across = links.across.0 as *mut i32;
-        _mm512_mask_i32scatter_epi32::<4>(across, opposite, slot(link), twin_link);
-        _mm512_mask_i32scatter_epi32::<4>(across, opposite, slot(twin_link), link);
+        scatter_links_avx512(links, opposite, link, twin_lane);
         Some(true)
     }
 

@@ -197,8 +197,8 @@ impl Couples {
         let blocks = keys.blocks().max(1);
         let part_len = triangle_part_len(n);
         // Pass 1: side ranks, and half-edges per block per part.
-        let mut side_ranks = vec![EXCLUDED; n];
-        let mut cursors: Vec<Vec<u32>> = side_ranks
+        let mut side_ranks = vec![EXCLUDED; n + RANKS_PADDING];
+        let mut cursors: Vec<Vec<u32>> = side_ranks[..n]
             .par_chunks_mut(part_len)
             .enumerate()
             .map(|(p, ranks)| {
@@ -228,7 +228,7 @@ impl Couples {
         let mut entries: Vec<K::Entry> = vec_on_huge_pages(half_edge_count);
         let destination = SharedSlice(entries.as_mut_ptr());
         let destination = &destination;
-        side_ranks
+        side_ranks[..n]
             .par_chunks(part_len)
             .zip(cursors)
             .enumerate()
@@ -304,6 +304,7 @@ impl Couples {
             .collect();
         let mut extra = extras.concat();
         extra.sort_unstable_by_key(|e| e.triangle);
+        side_ranks.truncate(n);
         Couples {
             across,
             extra,
@@ -668,9 +669,13 @@ fn couple_run<K: EdgeKeys>(
 pub(super) struct Links<'a> {
     /// [`Couples::across`].
     pub(super) across: SharedSlice<u32>,
-    /// [`Couples::side_ranks`].
+    /// [`Couples::side_ranks`], then [`RANKS_PADDING`] bytes.
     pub(super) ranks: &'a [u8],
 }
+
+/// Bytes after the side ranks in [`Links::ranks`], so that an AVX-512 gather of four
+/// bytes at any triangle's reads no further than the slice.
+pub(super) const RANKS_PADDING: usize = 3;
 
 impl Links<'_> {
     /// Link `from`'s side to `to`'s.
@@ -692,6 +697,30 @@ impl Links<'_> {
         let slot = 3 * h.triangle() as usize + h.rank(self.ranks) as usize;
         self.across.0.add(slot).write(SHARED_BY_MORE);
     }
+}
+
+/// Link the couples of a run in AVX-512 lanes, both ends at once, as [`Links::write`]
+/// does: in lanes `coupled`, a half-edge whose link is `link` (its triangle and its
+/// side's rank), and its twin in lane `twin_lane`. A link names its side's slot as
+/// well: `3t + rank` is `link - t`.
+///
+/// # Safety
+/// The CPU has AVX-512 F; the slots are this thread's.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn scatter_links_avx512(
+    links: &Links,
+    coupled: std::arch::x86_64::__mmask16,
+    link: std::arch::x86_64::__m512i,
+    twin_lane: std::arch::x86_64::__m512i,
+) {
+    use std::arch::x86_64::*;
+    let twin_link = _mm512_permutexvar_epi32(twin_lane, link);
+    let slot = |link| _mm512_sub_epi32(link, _mm512_srli_epi32::<2>(link));
+    let across = links.across.0 as *mut i32;
+    _mm512_mask_i32scatter_epi32::<4>(across, coupled, slot(link), twin_link);
+    _mm512_mask_i32scatter_epi32::<4>(across, coupled, slot(twin_link), link);
 }
 
 /// A couple on an edge of three or more half-edges, seen from `triangle`.
