@@ -123,11 +123,12 @@ pub(super) trait EdgeKeys: Sync {
     fn extra_key(&self, h: &Self::HalfEdge, rank: u32) -> u128;
     /// Whether `a` and `b`, two half-edges on one edge, may be a couple.
     fn may_couple(&self, a: &Self::HalfEdge, b: &Self::HalfEdge) -> bool;
-    /// Prefetch what [`EdgeKeys::may_couple`] will read of `h`, where that is not in the
-    /// half-edge: [`Couples::link`] calls stage 0 as it counts a block's runs, and
-    /// stage 1 as it sorts the block, before it searches the runs. None by default.
+    /// Prefetch what [`EdgeKeys::may_couple`] and linking will read of `h`, where that
+    /// is not in the half-edge (its triangle's byte of `ranks`, [`Links::ranks`], is
+    /// one): [`Couples::link`] calls stage 0 as it counts a block's runs, and stage 1
+    /// as it sorts the block, before it searches the runs. None by default.
     #[inline]
-    fn prefetch_couple(&self, _h: &Self::HalfEdge, _stage: u32) {}
+    fn prefetch_couple(&self, _h: &Self::HalfEdge, _stage: u32, _ranks: &[u8]) {}
     /// [`couple_pairs`] for a run of at most 16 half-edges in AVX-512 registers, for
     /// keys that have such a kernel (else `None`), which writes the links of the
     /// couples it finds only.
@@ -273,7 +274,7 @@ impl Couples {
                     start.clear();
                     start.resize(runs + 1, 0u32);
                     for h in block {
-                        keys.prefetch_couple(h, 0);
+                        keys.prefetch_couple(h, 0, links.ranks);
                         start[keys.run(h, runs) + 1] += 1;
                     }
                     for r in 0..runs {
@@ -282,7 +283,7 @@ impl Couples {
                     sorted.clear();
                     sorted.resize(block.len(), K::HalfEdge::default());
                     for h in block {
-                        keys.prefetch_couple(h, 1);
+                        keys.prefetch_couple(h, 1, links.ranks);
                         let c = &mut start[keys.run(h, runs)];
                         sorted[*c as usize] = *h;
                         *c += 1;
