@@ -610,9 +610,9 @@ fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
 }
 
 /// Write the couples of a whole run into `links` and `extra`, as [`Couples::link`]
-/// describes. The run's half-edges are sorted by edge
-/// (a stable sort: each edge's stay in id order), so that a long run (a fan's centre
-/// is the smaller vertex of thousands of edges) costs O(L log L), not O(L²).
+/// describes. The run's half-edges are sorted by edge (a stable sort: each edge's stay
+/// in id order), so that a long run (a fan's centre is the smaller vertex of thousands
+/// of edges) costs O(L log L), not O(L²).
 fn couple_run<K: EdgeKeys>(
     run: &[K::HalfEdge],
     keys: &K,
@@ -684,7 +684,7 @@ impl Links<'_> {
     /// # Safety
     /// `from`'s slot is this thread's.
     #[inline]
-    pub(super) unsafe fn write<H: HalfEdge>(&self, from: &H, to: &H) {
+    unsafe fn write<H: HalfEdge>(&self, from: &H, to: &H) {
         let slot = 3 * from.triangle() as usize + from.rank(self.ranks) as usize;
         self.across.0.add(slot).write(to.link(self.ranks));
     }
