@@ -65,10 +65,14 @@ pub(super) fn pair_sah_compressed_with(mesh: &TriMesh, avx512: bool) -> Pairing 
     }
     let keys = PositionKeys::new(mesh, avx512);
     let couples = Couples::link(mesh.triangle_count(), &keys, avx512);
-    match_greedily(couples, |t| {
-        let sides = &keys.keys[3 * t..3 * t + 3];
-        [0, 1, 2].map(|k| couple_key(sides[k], 0))
-    })
+    match_greedily(
+        couples,
+        |t| {
+            let sides = &keys.keys[3 * t..3 * t + 3];
+            [0, 1, 2].map(|k| couple_key(sides[k], 0))
+        },
+        avx512,
+    )
 }
 
 /// The published procedure, plainly: the records sorted by key, runs of equal keys

@@ -153,7 +153,7 @@ pub(super) fn pair_sah_with(mesh: &TriMesh, avx512: bool) -> Pairing {
     }
     let keys = VertexKeys { mesh };
     let couples = Couples::link(mesh.triangle_count(), &keys, avx512);
-    match_greedily(couples, |t| keys.side_keys(t).unwrap_or_default())
+    match_greedily(couples, |t| keys.side_keys(t).unwrap_or_default(), avx512)
 }
 
 /// The most vertices [`pair_sah`]'s fast route takes: a [`VertexHalfEdge`] keeps the
