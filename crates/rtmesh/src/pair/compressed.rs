@@ -505,7 +505,7 @@ impl EdgeKeys for PositionKeys<'_> {
     /// the runs' search took 22–31 ms, where checking and linking the couples one by
     /// one took 35–40.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512cd")]
+    #[target_feature(enable = "avx512f,avx512cd,popcnt")]
     #[inline]
     unsafe fn couple_pairs_avx512(&self, run: &[PositionHalfEdge], links: &Links) -> Option<bool> {
         use std::arch::x86_64::*;

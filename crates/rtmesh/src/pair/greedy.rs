@@ -309,7 +309,7 @@ impl EdgeKeys for VertexKeys<'_> {
     /// 7 ms, where the scalar pass (branches, checks and 128-bit keys per triangle)
     /// takes 16.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512cd")]
+    #[target_feature(enable = "avx512f,avx512cd,popcnt")]
     unsafe fn rank_and_count_avx512(
         &self,
         first: usize,

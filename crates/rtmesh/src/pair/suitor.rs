@@ -148,7 +148,7 @@ pub(super) trait EdgeKeys: Sync {
     /// there is no kernel); the scalar pass does the rest.
     ///
     /// # Safety
-    /// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]).
+    /// The CPU has AVX-512 F and CD, and POPCNT ([`has_avx512_conflict`]).
     unsafe fn rank_and_count_avx512(
         &self,
         _first: usize,
@@ -315,7 +315,8 @@ impl Couples {
     }
 }
 
-/// Whether this CPU has AVX-512 F and CD (conflict detection), for
+/// Whether this CPU has AVX-512 F and CD (conflict detection), and POPCNT (as every
+/// such CPU does), for
 /// [`EdgeKeys::rank_and_count_avx512`] and [`EdgeKeys::couple_pairs_avx512`] (detected
 /// once, then a cached flag).
 pub(crate) fn has_avx512_conflict() -> bool {
@@ -323,6 +324,7 @@ pub(crate) fn has_avx512_conflict() -> bool {
     {
         std::arch::is_x86_feature_detected!("avx512f")
             && std::arch::is_x86_feature_detected!("avx512cd")
+            && std::arch::is_x86_feature_detected!("popcnt")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -477,12 +479,14 @@ pub(super) unsafe fn edge_bbsa_avx512(
 /// significant first (compared unsigned), and `blocks[k]` the block of its half-edge.
 /// Writes the triangles' bytes of `ranks` ([`side_ranks`], or
 /// [`EXCLUDED`] in lanes not `active`) and counts the active ones' half-edges into
-/// `count` by block, one by one.
+/// `count` block by block: the 48 half-edges of 16 neighbouring triangles are mostly
+/// in one or two blocks, and one count per block, of the lanes compared with it,
+/// beats 48 increments in a chain (the dragon's first pass, one core: 6.8 → 5.3 ms).
 ///
 /// # Safety
-/// The CPU has AVX-512 F.
+/// The CPU has AVX-512 F and POPCNT.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 #[inline]
 pub(super) unsafe fn rank_and_count_lanes(
     keys: &[[std::arch::x86_64::__m512i; 3]; 3],
@@ -514,13 +518,16 @@ pub(super) unsafe fn rank_and_count_lanes(
         _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, b);
         lanes
     });
-    let mut lanes = active as u32;
-    while lanes != 0 {
-        let l = lanes.trailing_zeros() as usize;
-        lanes &= lanes - 1;
-        for b in &block {
-            count[b[l] as usize] += 1;
+    let mut uncounted = [active; 3];
+    while let Some(k) = (0..3).find(|&k| uncounted[k] != 0) {
+        let b = block[k][uncounted[k].trailing_zeros() as usize];
+        let mut n = 0;
+        for (lanes, blocks) in uncounted.iter_mut().zip(blocks) {
+            let in_b = _mm512_mask_cmpeq_epi32_mask(*lanes, blocks, _mm512_set1_epi32(b as i32));
+            n += in_b.count_ones();
+            *lanes &= !in_b;
         }
+        count[b as usize] += n;
     }
 }
 
@@ -815,9 +822,9 @@ fn settle_mutual_best(links: &[u32], state: &mut [u8], first: usize, avx512: boo
 /// proposers compressed. Returns how many triangles it did.
 ///
 /// # Safety
-/// The CPU has AVX-512 F; `proposers` has room for `state.len()` more.
+/// The CPU has AVX-512 F and POPCNT; `proposers` has room for `state.len()` more.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 unsafe fn settle_mutual_best_avx512(
     links: &[u32],
     state: &mut [u8],
@@ -858,10 +865,11 @@ unsafe fn settle_mutual_best_avx512(
 /// the pairs compressed into their lists.
 ///
 /// # Safety
-/// The CPU has AVX-512 F; `state` has [`RANKS_PADDING`] bytes after the `n` triangles'
-/// (a gather of four bytes at the last stays in it), and `3n` fits an `i32`.
+/// The CPU has AVX-512 F and POPCNT; `state` has [`RANKS_PADDING`] bytes after the
+/// `n` triangles' (a gather of four bytes at the last stays in it), and `3n` fits an
+/// `i32`.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
+#[target_feature(enable = "avx512f,popcnt")]
 unsafe fn suitor_pairs_avx512(links: &[u32], state: &[u8], n: usize) -> Pairing {
     use std::arch::x86_64::*;
     debug_assert!(state.len() >= n + RANKS_PADDING && 3 * n <= i32::MAX as usize);
