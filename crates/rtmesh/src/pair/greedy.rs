@@ -28,15 +28,15 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, load_records, load_triangles_avx512, rank_and_count_lanes,
-    scatter_links_avx512, twin_lanes, MAX_GATHER_VERTICES,
+    edge_bbsa_avx512, for_each_block_avx512, load_records, load_triangles_avx512,
+    rank_and_count_lanes, scatter_links_avx512, twin_lanes, EXCLUDED, MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
     Links, MAX_LINKED_TRIANGLES,
 };
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
-use crate::mesh::{has_edges, TriMesh};
+use crate::mesh::{has_edges, SharedSlice, TriMesh};
 
 /// One record of the paper's half-edge table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -338,6 +338,92 @@ impl EdgeKeys for VertexKeys<'_> {
             // Each half-edge's block: that of its smaller vertex.
             let blocks = keys.map(|k| _mm512_srli_epi32::<BLOCK_SHIFT>(k[1]));
             rank_and_count_lanes(&keys, blocks, active, &mut ranks[g..g + 16], count);
+        }
+        done
+    }
+
+    /// Sixteen triangles at a time: their half-edges built lane-wise, one side at a
+    /// time, and interleaved into records; then, block by block
+    /// ([`for_each_block_avx512`]: mostly one or two), each side's records in the
+    /// block compressed to the block's cursor. On the dragon, one core: 5 ms, where
+    /// the scalar pass (three cursors a triangle, in a chain) takes 9.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx512cd,popcnt,bmi2")]
+    unsafe fn write_out_avx512(
+        &self,
+        first: usize,
+        ranks: &[u8],
+        cursor: &mut [u32],
+        destination: &SharedSlice<VertexHalfEdge>,
+    ) -> usize {
+        use std::arch::x86_64::*;
+        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        // Word w of a side's 16 records [smaller, other, link] is field w % 3 of lane
+        // w / 3. Vector r of words: smaller and other picked from two vectors (other's
+        // lanes numbered from 16), then link's lanes from the third.
+        let lanes = |of_word: &dyn Fn(usize) -> usize| {
+            let lanes: [i32; 16] = std::array::from_fn(|i| of_word(i) as i32);
+            _mm512_loadu_si512(lanes.as_ptr() as *const __m512i)
+        };
+        let two_fields = [0, 16, 32].map(|from| lanes(&|i| (from + i) / 3 + 16 * ((from + i) % 3)));
+        let record_lane = [0, 16, 32].map(|from| lanes(&|i| (from + i) / 3));
+        let is_link = [0, 16, 32].map(|from| {
+            (0..16).fold(0, |m, i| m | (((from + i) % 3 == 2) as u16) << i) as __mmask16
+        });
+        let destination = destination.0 as *mut i32;
+        let done = ranks.len() / 16 * 16;
+        for g in (0..done).step_by(16) {
+            let t = first + g;
+            let v = load_records::<3>(self.mesh.triangles[t..t + 16].as_ptr() as *const i32, 16);
+            let rank_bytes =
+                _mm512_cvtepu8_epi32(_mm_loadu_si128(ranks.as_ptr().add(g) as *const __m128i));
+            let active = _mm512_cmpneq_epi32_mask(rank_bytes, _mm512_set1_epi32(EXCLUDED as i32));
+            let triangle =
+                _mm512_slli_epi32::<2>(_mm512_add_epi32(_mm512_set1_epi32(t as i32), lane));
+            let mut records = [[_mm512_setzero_si512(); 3]; 3];
+            let mut blocks = [_mm512_setzero_si512(); 3];
+            for k in 0..3 {
+                let (a, b) = (v[k], v[(k + 1) % 3]);
+                let smaller = _mm512_min_epu32(a, b);
+                let other = _mm512_mask_or_epi32(
+                    _mm512_max_epu32(a, b),
+                    _mm512_cmplt_epu32_mask(a, b),
+                    _mm512_max_epu32(a, b),
+                    _mm512_set1_epi32(VertexHalfEdge::FORWARD as i32),
+                );
+                let rank = _mm512_and_epi32(
+                    _mm512_srlv_epi32(rank_bytes, _mm512_set1_epi32(2 * k as i32)),
+                    _mm512_set1_epi32(3),
+                );
+                let link = _mm512_or_epi32(triangle, rank);
+                records[k] = std::array::from_fn(|r| {
+                    _mm512_mask_permutexvar_epi32(
+                        _mm512_permutex2var_epi32(smaller, two_fields[r], other),
+                        is_link[r],
+                        record_lane[r],
+                        link,
+                    )
+                });
+                blocks[k] = _mm512_srli_epi32::<BLOCK_SHIFT>(smaller);
+            }
+            for_each_block_avx512(&blocks, active, |b, in_b| {
+                let mut at = 3 * cursor[b] as usize;
+                for (records, in_b) in records.iter().zip(in_b) {
+                    // A lane's record is three words.
+                    let words = _pdep_u64(in_b as u64, 0x2492_4924_9249) * 7;
+                    for (r, &record) in records.iter().enumerate() {
+                        let in_r = (words >> (16 * r)) as __mmask16;
+                        let n = in_r.count_ones() as usize;
+                        _mm512_mask_storeu_epi32(
+                            destination.add(at),
+                            ((1u32 << n) - 1) as __mmask16,
+                            _mm512_maskz_compress_epi32(in_r, record),
+                        );
+                        at += n;
+                    }
+                }
+                cursor[b] = (at / 3) as u32;
+            });
         }
         done
     }

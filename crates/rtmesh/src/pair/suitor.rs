@@ -157,6 +157,26 @@ pub(super) trait EdgeKeys: Sync {
     ) -> usize {
         0
     }
+    /// The second pass of [`Couples::link`] in AVX-512, for keys that have such a
+    /// kernel, over a prefix of the triangles from `first`, whose bytes of `ranks` the
+    /// first pass wrote: each one's half-edges' entries written at its block's
+    /// `cursor`, into `destination`, and the cursor moved past them. A triangle's
+    /// half-edges stay in side order, and groups of triangles in order, but a group's
+    /// sides 0 may come before its sides 1. Returns the prefix's length (0 where there
+    /// is no kernel); the scalar pass does the rest.
+    ///
+    /// # Safety
+    /// As [`EdgeKeys::rank_and_count_avx512`], and the CPU has BMI2; the cursors give
+    /// every half-edge its own slot of `destination`.
+    unsafe fn write_out_avx512(
+        &self,
+        _first: usize,
+        _ranks: &[u8],
+        _cursor: &mut [u32],
+        _destination: &SharedSlice<Self::Entry>,
+    ) -> usize {
+        0
+    }
 }
 
 /// The longest fixed window of [`couple_pairs`].
@@ -190,10 +210,11 @@ impl Couples {
     /// half-edge or its id, as this table is the one that leaves the cache; a
     /// triangle's three take one read of each cursor, not three in a chain). The third
     /// takes a block at a time, in cache: a counting sort on the run gathers each run's
-    /// half-edges (ascending ids), among which every edge's are found by comparing
-    /// edges. Parts of the triangles, then blocks, on the pool's threads. When `avx512`
-    /// (which the CPU must have: [`has_avx512_conflict`]), the first pass and the runs'
-    /// search take the kernels [`EdgeKeys::rank_and_count_avx512`] and
+    /// half-edges (in the order written, which keeps each triangle's in side order),
+    /// among which every edge's are found by comparing edges. Parts of the triangles,
+    /// then blocks, on the pool's threads. When `avx512` (which the CPU must have:
+    /// [`has_avx512_conflict`]), the passes take the kernels
+    /// [`EdgeKeys::rank_and_count_avx512`], [`EdgeKeys::write_out_avx512`] and
     /// [`EdgeKeys::couple_pairs_avx512`], where the keys have them.
     pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K, avx512: bool) -> Self {
         let n = triangle_count;
@@ -224,7 +245,7 @@ impl Couples {
                 count
             })
             .collect();
-        // Parts in order within a block: a block's half-edges ascend.
+        // Parts in order within a block.
         let block_start = part_cursors(&mut cursors, blocks);
         // Pass 2: write the half-edges out by block.
         let half_edge_count = block_start[blocks] as usize;
@@ -236,7 +257,14 @@ impl Couples {
             .zip(cursors)
             .enumerate()
             .for_each(|(p, (ranks, mut cursor))| {
-                for (i, &r) in ranks.iter().enumerate() {
+                let done = if avx512 {
+                    // SAFETY: `avx512` says the CPU has the features; the counts give
+                    // every half-edge its own slot.
+                    unsafe { keys.write_out_avx512(p * part_len, ranks, &mut cursor, destination) }
+                } else {
+                    0
+                };
+                for (i, &r) in ranks.iter().enumerate().skip(done) {
                     if r == EXCLUDED {
                         continue;
                     }
@@ -315,8 +343,8 @@ impl Couples {
     }
 }
 
-/// Whether this CPU has AVX-512 F and CD (conflict detection), and POPCNT (as every
-/// such CPU does), for
+/// Whether this CPU has AVX-512 F and CD (conflict detection), and POPCNT and BMI2 (as
+/// every such CPU does), for
 /// [`EdgeKeys::rank_and_count_avx512`] and [`EdgeKeys::couple_pairs_avx512`] (detected
 /// once, then a cached flag).
 pub(crate) fn has_avx512_conflict() -> bool {
@@ -325,6 +353,7 @@ pub(crate) fn has_avx512_conflict() -> bool {
         std::arch::is_x86_feature_detected!("avx512f")
             && std::arch::is_x86_feature_detected!("avx512cd")
             && std::arch::is_x86_feature_detected!("popcnt")
+            && std::arch::is_x86_feature_detected!("bmi2")
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -513,21 +542,42 @@ pub(super) unsafe fn rank_and_count_lanes(
         ranks[..16].as_mut_ptr() as *mut __m128i,
         _mm512_cvtepi32_epi8(byte),
     );
+    for_each_block_avx512(&blocks, active, |b, in_b| {
+        count[b] += in_b.iter().map(|m| m.count_ones()).sum::<u32>();
+    });
+}
+
+/// Calls `f(b, in_b)` once for each block `b` among the lanes `active` of `blocks`
+/// (the blocks of 16 triangles' sides 0, 1, 2), with the lanes in it of each side,
+/// `in_b`. The blocks come in the order of their first lane (side 0's lanes before
+/// side 1's).
+///
+/// # Safety
+/// The CPU has AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn for_each_block_avx512(
+    blocks: &[std::arch::x86_64::__m512i; 3],
+    active: std::arch::x86_64::__mmask16,
+    mut f: impl FnMut(usize, [std::arch::x86_64::__mmask16; 3]),
+) {
+    use std::arch::x86_64::*;
     let block = blocks.map(|b| {
         let mut lanes = [0u32; 16];
         _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, b);
         lanes
     });
-    let mut uncounted = [active; 3];
-    while let Some(k) = (0..3).find(|&k| uncounted[k] != 0) {
-        let b = block[k][uncounted[k].trailing_zeros() as usize];
-        let mut n = 0;
-        for (lanes, blocks) in uncounted.iter_mut().zip(blocks) {
-            let in_b = _mm512_mask_cmpeq_epi32_mask(*lanes, blocks, _mm512_set1_epi32(b as i32));
-            n += in_b.count_ones();
-            *lanes &= !in_b;
+    let mut left = [active; 3];
+    while let Some(k) = (0..3).find(|&k| left[k] != 0) {
+        let b = block[k][left[k].trailing_zeros() as usize];
+        let in_b = std::array::from_fn(|j| {
+            _mm512_mask_cmpeq_epi32_mask(left[j], blocks[j], _mm512_set1_epi32(b as i32))
+        });
+        for (left, in_b) in left.iter_mut().zip(in_b) {
+            *left &= !in_b;
         }
-        count[b as usize] += n;
+        f(b as usize, in_b);
     }
 }
 
@@ -618,8 +668,8 @@ fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
 }
 
 /// Write the couples of a whole run into `links` and `extra`, as [`Couples::link`]
-/// describes. The run's half-edges are sorted by edge (a stable sort: each edge's stay
-/// in id order), so that a long run (a fan's centre is the smaller vertex of thousands
+/// describes. The run's half-edges are sorted by edge, then triangle (a stable sort:
+/// one triangle's stay in side order), so each edge's are in id order and a long run (a fan's centre is the smaller vertex of thousands
 /// of edges) costs O(L log L), not O(L²).
 fn couple_run<K: EdgeKeys>(
     run: &[K::HalfEdge],
@@ -628,7 +678,7 @@ fn couple_run<K: EdgeKeys>(
     extra: &mut Vec<ExtraCouple>,
 ) {
     let mut by_edge: Vec<usize> = (0..run.len()).collect();
-    by_edge.sort_by_key(|&i| run[i].edge());
+    by_edge.sort_by_key(|&i| (run[i].edge(), run[i].triangle()));
     for on_edge in by_edge.chunk_by(|&a, &b| run[a].edge() == run[b].edge()) {
         match *on_edge {
             [_] => {}
