@@ -30,8 +30,9 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, for_each_block_avx512, load_records, load_triangles_avx512,
-    rank_and_count_lanes, scatter_links_avx512, twin_lanes, EXCLUDED, MAX_GATHER_VERTICES,
+    append_lanes_avx512, edge_bbsa_avx512, for_each_block_avx512, load_group_avx512, load_records,
+    load_triangles_avx512, rank_and_count_lanes, scatter_links_avx512, twin_lanes,
+    MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
@@ -517,7 +518,7 @@ impl EdgeKeys for PositionKeys<'_> {
     /// block's cursor. On the dragon, one core, side by side: 7.8 ms, where the scalar
     /// pass takes 8.6 (its keys' reads, which this gathers again, are most of it).
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512cd,popcnt,bmi2")]
+    #[target_feature(enable = "avx512f,avx512cd,popcnt")]
     unsafe fn write_out_avx512(
         &self,
         first: usize,
@@ -526,29 +527,16 @@ impl EdgeKeys for PositionKeys<'_> {
         destination: &SharedSlice<u32>,
     ) -> usize {
         use std::arch::x86_64::*;
-        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
         let destination = destination.0 as *mut i32;
         let done = ranks.len() / 16 * 16;
         for g in (0..done).step_by(16) {
-            let t = first + g;
-            let (_, blocks, _) = self.keys_and_blocks_avx512(t);
-            let rank_bytes =
-                _mm512_cvtepu8_epi32(_mm_loadu_si128(ranks.as_ptr().add(g) as *const __m128i));
-            let active = _mm512_cmpneq_epi32_mask(rank_bytes, _mm512_set1_epi32(EXCLUDED as i32));
-            let triangle =
-                _mm512_slli_epi32::<2>(_mm512_add_epi32(_mm512_set1_epi32(t as i32), lane));
+            let (_, blocks, _) = self.keys_and_blocks_avx512(first + g);
+            let (triangle, _, active) = load_group_avx512(first + g, &ranks[g..]);
             let ids = [0, 1, 2].map(|k| _mm512_or_epi32(triangle, _mm512_set1_epi32(k)));
             for_each_block_avx512(&blocks, active, |b, in_b| {
-                let mut at = cursor[b] as usize;
-                for (&ids, in_b) in ids.iter().zip(in_b) {
-                    let n = in_b.count_ones() as usize;
-                    _mm512_mask_storeu_epi32(
-                        destination.add(at),
-                        ((1u32 << n) - 1) as __mmask16,
-                        _mm512_maskz_compress_epi32(in_b, ids),
-                    );
-                    at += n;
-                }
+                let at = (0..3).fold(cursor[b] as usize, |at, k| {
+                    append_lanes_avx512(destination, at, in_b[k], ids[k])
+                });
                 cursor[b] = at as u32;
             });
         }

@@ -28,8 +28,9 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    edge_bbsa_avx512, for_each_block_avx512, load_records, load_triangles_avx512,
-    rank_and_count_lanes, scatter_links_avx512, twin_lanes, EXCLUDED, MAX_GATHER_VERTICES,
+    append_lanes_avx512, edge_bbsa_avx512, for_each_block_avx512, load_group_avx512, load_records,
+    load_triangles_avx512, rank_and_count_lanes, scatter_links_avx512, twin_lanes,
+    MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
@@ -357,7 +358,6 @@ impl EdgeKeys for VertexKeys<'_> {
         destination: &SharedSlice<VertexHalfEdge>,
     ) -> usize {
         use std::arch::x86_64::*;
-        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
         // Word w of a side's 16 records [smaller, other, link] is field w % 3 of lane
         // w / 3. Vector r of words: smaller and other picked from two vectors (other's
         // lanes numbered from 16), then link's lanes from the third.
@@ -375,11 +375,7 @@ impl EdgeKeys for VertexKeys<'_> {
         for g in (0..done).step_by(16) {
             let t = first + g;
             let v = load_records::<3>(self.mesh.triangles[t..t + 16].as_ptr() as *const i32, 16);
-            let rank_bytes =
-                _mm512_cvtepu8_epi32(_mm_loadu_si128(ranks.as_ptr().add(g) as *const __m128i));
-            let active = _mm512_cmpneq_epi32_mask(rank_bytes, _mm512_set1_epi32(EXCLUDED as i32));
-            let triangle =
-                _mm512_slli_epi32::<2>(_mm512_add_epi32(_mm512_set1_epi32(t as i32), lane));
+            let (triangle, rank_bytes, active) = load_group_avx512(t, &ranks[g..]);
             let mut records = [[_mm512_setzero_si512(); 3]; 3];
             let mut blocks = [_mm512_setzero_si512(); 3];
             for k in 0..3 {
@@ -413,13 +409,7 @@ impl EdgeKeys for VertexKeys<'_> {
                     let words = _pdep_u64(in_b as u64, 0x2492_4924_9249) * 7;
                     for (r, &record) in records.iter().enumerate() {
                         let in_r = (words >> (16 * r)) as __mmask16;
-                        let n = in_r.count_ones() as usize;
-                        _mm512_mask_storeu_epi32(
-                            destination.add(at),
-                            ((1u32 << n) - 1) as __mmask16,
-                            _mm512_maskz_compress_epi32(in_r, record),
-                        );
-                        at += n;
+                        at = append_lanes_avx512(destination, at, in_r, record);
                     }
                 }
                 cursor[b] = (at / 3) as u32;

@@ -557,6 +557,56 @@ pub(super) unsafe fn rank_and_count_lanes(
     });
 }
 
+/// Triangles `first..first + 16` in AVX-512 lanes, for a pass after the first: `4t`,
+/// their bytes of side ranks (`ranks[..16]`), and the lanes that take part (not
+/// [`EXCLUDED`]).
+///
+/// # Safety
+/// The CPU has AVX-512 F; `ranks` has 16 bytes.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn load_group_avx512(
+    first: usize,
+    ranks: &[u8],
+) -> (
+    std::arch::x86_64::__m512i,
+    std::arch::x86_64::__m512i,
+    std::arch::x86_64::__mmask16,
+) {
+    use std::arch::x86_64::*;
+    debug_assert!(ranks.len() >= 16);
+    let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    let triangle = _mm512_slli_epi32::<2>(_mm512_add_epi32(_mm512_set1_epi32(first as i32), lane));
+    let bytes = _mm512_cvtepu8_epi32(_mm_loadu_si128(ranks.as_ptr() as *const __m128i));
+    let active = _mm512_cmpneq_epi32_mask(bytes, _mm512_set1_epi32(EXCLUDED as i32));
+    (triangle, bytes, active)
+}
+
+/// Store the lanes `lanes` of `words` packed at `destination + at`; returns the index
+/// past them.
+///
+/// # Safety
+/// The CPU has AVX-512 F and POPCNT; the slots are this thread's.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,popcnt")]
+#[inline]
+pub(super) unsafe fn append_lanes_avx512(
+    destination: *mut i32,
+    at: usize,
+    lanes: std::arch::x86_64::__mmask16,
+    words: std::arch::x86_64::__m512i,
+) -> usize {
+    use std::arch::x86_64::*;
+    let n = lanes.count_ones() as usize;
+    _mm512_mask_storeu_epi32(
+        destination.add(at),
+        ((1u32 << n) - 1) as __mmask16,
+        _mm512_maskz_compress_epi32(lanes, words),
+    );
+    at + n
+}
+
 /// Calls `f(b, in_b)` once for each block `b` among the lanes `active` of `blocks`
 /// (the blocks of 16 triangles' sides 0, 1, 2), with the lanes in it of each side,
 /// `in_b`. The blocks come in the order of their first lane (side 0's lanes before
