@@ -729,8 +729,9 @@ fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
 
 /// Write the couples of a whole run into `links` and `extra`, as [`Couples::link`]
 /// describes. The run's half-edges are sorted by edge, then triangle (a stable sort:
-/// one triangle's stay in side order), so each edge's are in id order and a long run (a fan's centre is the smaller vertex of thousands
-/// of edges) costs O(L log L), not O(L²).
+/// one triangle's stay in side order), so each edge's are in id order and a long run
+/// (a fan's centre is the smaller vertex of thousands of edges) costs O(L log L), not
+/// O(L²).
 fn couple_run<K: EdgeKeys>(
     run: &[K::HalfEdge],
     keys: &K,
@@ -960,12 +961,13 @@ unsafe fn settle_mutual_best_avx512(
             _mm512_cvtepi32_epi8(offer),
         );
         let t = _mm512_add_epi32(_mm512_set1_epi32((first + g) as i32), lane);
-        let len = proposers.len();
-        _mm512_storeu_si512(
-            proposers.as_mut_ptr().add(len) as *mut __m512i,
-            _mm512_maskz_compress_epi32(proposing, t),
-        );
-        proposers.set_len(len + proposing.count_ones() as usize);
+        let destination = proposers.as_mut_ptr() as *mut i32;
+        proposers.set_len(append_lanes_avx512(
+            destination,
+            proposers.len(),
+            proposing,
+            t,
+        ));
     }
     done
 }
@@ -1015,12 +1017,8 @@ unsafe fn suitor_pairs_avx512(links: &[u32], state: &[u8], n: usize) -> Pairing 
             _mm512_and_epi32(link, three),
         );
         let alone = !mutual;
-        let count = unpaired.len();
-        _mm512_storeu_si512(
-            unpaired.as_mut_ptr().add(count) as *mut __m512i,
-            _mm512_maskz_compress_epi32(alone, t),
-        );
-        unpaired.set_len(count + alone.count_ones() as usize);
+        let destination = unpaired.as_mut_ptr() as *mut i32;
+        unpaired.set_len(append_lanes_avx512(destination, unpaired.len(), alone, t));
         let first = _mm512_mask_cmpgt_epu32_mask(mutual, u, t);
         for (half, interleave) in [first as u8, (first >> 8) as u8]
             .into_iter()
