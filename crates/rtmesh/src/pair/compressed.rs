@@ -31,8 +31,8 @@
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
     append_lanes_avx512, edge_bbsa_avx512, for_each_block_avx512, load_group_avx512, load_records,
-    load_triangles_avx512, rank_and_count_lanes, scatter_links_avx512, twin_lanes,
-    MAX_GATHER_VERTICES,
+    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, scatter_links_avx512,
+    twin_lanes, MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
@@ -640,11 +640,7 @@ impl EdgeKeys for PositionKeys<'_> {
             t,
             links.ranks.as_ptr() as *const i32,
         );
-        let rank = _mm512_and_epi32(
-            _mm512_srlv_epi32(bytes, _mm512_add_epi32(k, k)),
-            _mm512_set1_epi32(3),
-        );
-        let link = _mm512_or_epi32(_mm512_slli_epi32::<2>(t), rank);
+        let link = _mm512_or_epi32(_mm512_slli_epi32::<2>(t), rank_of_side_lanes(bytes, k));
         scatter_links_avx512(links, opposite, link, twin_lane);
         Some(true)
     }

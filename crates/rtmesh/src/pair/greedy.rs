@@ -29,8 +29,8 @@
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
     append_lanes_avx512, edge_bbsa_avx512, for_each_block_avx512, load_group_avx512, load_records,
-    load_triangles_avx512, rank_and_count_lanes, scatter_links_avx512, twin_lanes,
-    MAX_GATHER_VERTICES,
+    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, scatter_links_avx512,
+    twin_lanes, MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
@@ -380,18 +380,15 @@ impl EdgeKeys for VertexKeys<'_> {
             let mut blocks = [_mm512_setzero_si512(); 3];
             for k in 0..3 {
                 let (a, b) = (v[k], v[(k + 1) % 3]);
-                let smaller = _mm512_min_epu32(a, b);
+                let (smaller, larger) = (_mm512_min_epu32(a, b), _mm512_max_epu32(a, b));
                 let other = _mm512_mask_or_epi32(
-                    _mm512_max_epu32(a, b),
+                    larger,
                     _mm512_cmplt_epu32_mask(a, b),
-                    _mm512_max_epu32(a, b),
+                    larger,
                     _mm512_set1_epi32(VertexHalfEdge::FORWARD as i32),
                 );
-                let rank = _mm512_and_epi32(
-                    _mm512_srlv_epi32(rank_bytes, _mm512_set1_epi32(2 * k as i32)),
-                    _mm512_set1_epi32(3),
-                );
-                let link = _mm512_or_epi32(triangle, rank);
+                let side = _mm512_set1_epi32(k as i32);
+                let link = _mm512_or_epi32(triangle, rank_of_side_lanes(rank_bytes, side));
                 records[k] = std::array::from_fn(|r| {
                     _mm512_mask_permutexvar_epi32(
                         _mm512_permutex2var_epi32(smaller, two_fields[r], other),
