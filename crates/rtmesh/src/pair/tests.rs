@@ -560,7 +560,9 @@ fn tied_edge_areas_pair_like_the_published_procedure() {
 
 /// A cone of 24 triangles around vertex 0 (which has the smallest index, so all 48
 /// half-edges of its spokes sort under it) and a fin on one spoke: the twin search's
-/// long-run path (past its fixed window) must pair like the published procedure.
+/// long-run path (past its fixed window) must pair like the published procedure. So
+/// must the cone with its even triangles listed first, which puts twins far apart in
+/// the run.
 #[test]
 fn long_vertex_runs_pair_like_the_published_procedure() {
     let spokes = 24u32;
@@ -579,8 +581,10 @@ fn long_vertex_runs_pair_like_the_published_procedure() {
         .collect();
     let mut with_fin = triangles.clone();
     with_fin.push([0, spokes + 1, 1]);
+    let evens_first = (0..2).flat_map(|odd| triangles.iter().skip(odd).step_by(2));
+    let evens_first = evens_first.copied().collect();
     triangles.push([1, 2, 3]);
-    for triangles in [triangles, with_fin] {
+    for triangles in [triangles, with_fin, evens_first] {
         let mesh = TriMesh::new(positions.clone(), triangles);
         let fast = pair_sah(&mesh);
         assert_eq!(fast, pair_sah_reference(&mesh));
@@ -590,4 +594,27 @@ fn long_vertex_runs_pair_like_the_published_procedure() {
             compressed::pair_sah_compressed_reference(&mesh)
         );
     }
+}
+
+/// The indexed twin search compares an edge's larger vertex modulo 2²⁰ first (one
+/// word with its run), so edges (0, 1) of triangle A and (1 + 2²⁰, 0) of C look alike
+/// there, and run opposite ways: they must not couple. A's true couple is B, across
+/// (0, 2), and C has none.
+#[test]
+fn larger_vertices_alike_modulo_a_word_do_not_couple() {
+    let far = 1 + (1 << 20);
+    let mut positions = vec![Vec3::ZERO; far as usize + 1];
+    for (v, p) in [
+        (1, Vec3::new(3.0, 3.0, 0.0)),
+        (2, Vec3::new(1.0, 0.0, 0.0)),
+        (3, Vec3::new(-1.0, 0.0, 0.0)),
+        (4, Vec3::new(0.0, 1.0, 0.0)),
+        (far, Vec3::new(-3.0, -3.0, 0.0)),
+    ] {
+        positions[v as usize] = p;
+    }
+    let mesh = TriMesh::new(positions, vec![[0, 1, 2], [0, 2, 4], [far, 0, 3]]);
+    let reference = assert_fast_routes_pair_like_the_references(&mesh, &[1], "far vertices");
+    assert_eq!(reference.pairs, [[0, 1]]);
+    assert_eq!(reference.unpaired, [2]);
 }
