@@ -29,12 +29,14 @@
 
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
-    append_lanes_avx512, edge_bbsa_avx512, for_each_block_avx512, load_group_avx512, load_records,
-    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, MAX_GATHER_VERTICES,
+    append_lanes_avx512, block_words_avx512, decline_lanes_avx512, edge_bbsa_avx512,
+    for_each_block_avx512, lanes_at_avx512, load_group_avx512, load_records, load_triangles_avx512,
+    rank_and_count_lanes, rank_of_side_lanes, window_matches_avx512, write_links_avx512,
+    MAX_GATHER_VERTICES,
 };
 use super::suitor::{
-    has_avx512_conflict, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge,
-    Links, MAX_LINKED_TRIANGLES,
+    has_avx512, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge, Links,
+    MAX_LINKED_TRIANGLES,
 };
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{has_edges, SharedSlice, TriMesh};
@@ -143,7 +145,7 @@ pub fn pair_sah_reference(mesh: &TriMesh) -> Pairing {
 /// three or more half-edges, the earlier couple in table order ranks higher. Keys are
 /// distinct, so the locally dominant matching Suitor finds is the scan's.
 pub fn pair_sah(mesh: &TriMesh) -> Pairing {
-    pair_sah_with(mesh, has_avx512_conflict())
+    pair_sah_with(mesh, has_avx512())
 }
 
 /// [`pair_sah`], with the twin search's AVX-512 kernels when `avx512` (which the CPU
@@ -264,150 +266,66 @@ impl EdgeKeys for VertexKeys<'_> {
         (a.other ^ b.other) & VertexHalfEdge::FORWARD != 0
     }
 
-    /// The whole block, 16 half-edges at a time, where a run's twins lie within 15
-    /// places of each other (in runs of at most 16). Each half-edge's edge is first
-    /// written as one word (`words`): its larger vertex above its run, so that two
+    /// The whole block, 16 half-edges at a time. Each half-edge's edge is one word:
+    /// its larger vertex above its run (its smaller vertex in the block), so that two
     /// edges of a block share a word only when their larger vertices differ by a
-    /// multiple of 2²⁰. Then each half-edge's word is compared with the 15 before and
-    /// the 15 after it, loaded from `words` at each distance: every match adds
-    /// 64 plus its signed distance to an accumulator, which then tells at once no
-    /// match, one match and where, or more. Half-edges with one match whose larger
-    /// vertex is the same and which run opposite ways ([`EdgeKeys::may_couple`]) are
-    /// couples; each writes its own slot (`3t + rank` is `link - t`), in one scatter
-    /// for 16 half-edges. Runs longer than 16, and runs with a half-edge of more than
-    /// one match or of one that is not its edge's, are declined. On the dragon's 437k
-    /// runs (one core) this takes 5.3 ms where a kernel per run, with `vpconflictd`
-    /// (about 20 cycles) and two scatters a run, took 10.
+    /// multiple of 2²⁰. Each word is compared with its neighbours'
+    /// ([`window_matches_avx512`]); a half-edge with one match of the same larger
+    /// vertex has a twin. Twins that run opposite ways ([`EdgeKeys::may_couple`]) are
+    /// couples: each writes its own slot (`3t + rank` is `link - t`) with its twin's
+    /// link, in one scatter for 16 half-edges. A half-edge with more matches, or one
+    /// of another larger vertex, is declined. On the dragon's 437k runs (one core)
+    /// this takes 5.3 ms where a kernel per run, with `vpconflictd` (about 20 cycles)
+    /// and two scatters a run, took 10.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512cd,popcnt")]
+    #[target_feature(enable = "avx512f,popcnt")]
     unsafe fn couple_block_avx512(
         &self,
         sorted: &[VertexHalfEdge],
-        ends: &[u32],
         links: &Links,
         words: &mut Vec<u32>,
         declined: &mut Vec<u32>,
     ) -> bool {
         use std::arch::x86_64::*;
-        const WINDOW: usize = 16;
         let len = sorted.len();
-        let mut from = 0;
-        for (r, &end) in ends.iter().enumerate() {
-            if end - from > WINDOW as u32 {
-                declined.push(r as u32);
-            }
-            from = end;
-        }
         let records = sorted.as_ptr() as *const i32;
-        let run_mask = _mm512_set1_epi32(BLOCK_VERTICES as i32 - 1);
         let larger_mask = _mm512_set1_epi32(VertexHalfEdge::NO_EDGE as i32);
         // Half-edges p to p + 15 as [smaller, other, link], and the lanes that are
-        // in the block; past its end, an edge that no half-edge has.
+        // in the block; past its end, a larger vertex that no half-edge has.
         let load = |p: usize| {
             let count = len.saturating_sub(p).min(16);
             let [smaller, other, link] = load_records::<3>(records.wrapping_add(3 * p), count);
             let lanes = ((1u32 << count) - 1) as __mmask16;
-            (
-                smaller,
-                _mm512_mask_blend_epi32(lanes, larger_mask, other),
-                link,
-                lanes,
-            )
+            let other = _mm512_mask_blend_epi32(lanes, larger_mask, other);
+            ([smaller, other, link], lanes)
         };
-        // The words, with WINDOW words before and 2 * WINDOW after the last group that
-        // match nothing.
-        words.clear();
-        words.reserve(len + 4 * WINDOW);
-        let word = words.as_mut_ptr() as *mut i32;
-        let none = _mm512_set1_epi32(-1);
-        _mm512_storeu_si512(word as *mut __m512i, none);
-        for p in (0..len).step_by(16) {
-            let (smaller, other, _, lanes) = load(p);
-            let edge = _mm512_or_epi32(
-                _mm512_slli_epi32::<BLOCK_SHIFT>(other),
-                _mm512_and_epi32(smaller, run_mask),
-            );
-            _mm512_storeu_si512(
-                word.add(WINDOW + p) as *mut __m512i,
-                _mm512_mask_blend_epi32(lanes, none, edge),
-            );
-        }
-        let tail = WINDOW + len.div_ceil(16) * 16;
-        for at in [tail, tail + 16] {
-            _mm512_storeu_si512(word.add(at) as *mut __m512i, none);
-        }
-        words.set_len(tail + 2 * WINDOW);
-        let word = word.add(WINDOW);
-        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-        let across = links.across.0 as *mut i32;
+        let word = block_words_avx512(words, len, |p| {
+            let ([smaller, other, _], _) = load(p);
+            let run = _mm512_and_epi32(smaller, _mm512_set1_epi32(BLOCK_VERTICES as i32 - 1));
+            _mm512_or_epi32(_mm512_slli_epi32::<BLOCK_SHIFT>(other), run)
+        });
         let mut window = [
             (
-                _mm512_setzero_si512(),
-                larger_mask,
-                _mm512_setzero_si512(),
+                [_mm512_setzero_si512(), larger_mask, _mm512_setzero_si512()],
                 0,
             ),
             load(0),
             load(16),
         ];
         for p in (0..len).step_by(16) {
-            let [before, here, after] = window;
-            let (smaller, other, link, lanes) = here;
-            let edge = _mm512_loadu_si512(word.add(p) as *const __m512i);
-            let mut matches = _mm512_setzero_si512();
-            for d in 1..WINDOW {
-                for (at, distance) in [(p + d, d as i32), (p.wrapping_sub(d), -(d as i32))] {
-                    let other_edge = _mm512_loadu_si512(word.wrapping_add(at) as *const __m512i);
-                    matches = _mm512_mask_add_epi32(
-                        matches,
-                        _mm512_cmpeq_epi32_mask(edge, other_edge),
-                        matches,
-                        _mm512_set1_epi32(64 + distance),
-                    );
-                }
-            }
-            // One match: 64 plus its distance, 49 to 79; two or more: 98 or more.
-            let one = _mm512_mask_cmple_epu32_mask(
-                lanes,
-                _mm512_sub_epi32(matches, _mm512_set1_epi32(49)),
-                _mm512_set1_epi32(30),
-            );
-            let several = _mm512_mask_cmpgt_epu32_mask(lanes, matches, _mm512_set1_epi32(79));
-            // The match's lane among before, here and after: -15 to 30 from here's.
-            let at = _mm512_add_epi32(lane, _mm512_sub_epi32(matches, _mm512_set1_epi32(64)));
-            let ahead = _mm512_cmpge_epi32_mask(at, _mm512_setzero_si512());
-            let at_before = _mm512_add_epi32(at, _mm512_set1_epi32(16));
-            let pick = |f: fn(&(__m512i, __m512i, __m512i, __mmask16)) -> __m512i| {
-                _mm512_mask_blend_epi32(
-                    ahead,
-                    _mm512_permutex2var_epi32(f(&before), at_before, f(&here)),
-                    _mm512_permutex2var_epi32(f(&here), at, f(&after)),
-                )
-            };
-            let twin_other = pick(|h| h.1);
-            let twin_link = pick(|h| h.2);
-            let differ = _mm512_xor_epi32(other, twin_other);
+            let ([_, other, link], lanes) = window[1];
+            let (one, several, at) = window_matches_avx512(word, p, lanes);
+            let twin = |field: usize| lanes_at_avx512(window.map(|(h, _)| h[field]), at);
+            let differ = _mm512_xor_epi32(other, twin(1));
             let twins = _mm512_mask_testn_epi32_mask(one, differ, larger_mask);
             let opposite = _mm512_mask_test_epi32_mask(
                 twins,
                 differ,
                 _mm512_set1_epi32(VertexHalfEdge::FORWARD as i32),
             );
-            let slot = _mm512_sub_epi32(link, _mm512_srli_epi32::<2>(link));
-            _mm512_mask_i32scatter_epi32::<4>(across, opposite, slot, twin_link);
-            let declining = several | one & !twins;
-            if declining != 0 {
-                declined.reserve(16);
-                let destination = declined.as_mut_ptr() as *mut i32;
-                let run = _mm512_and_epi32(smaller, run_mask);
-                declined.set_len(append_lanes_avx512(
-                    destination,
-                    declined.len(),
-                    declining,
-                    run,
-                ));
-            }
-            window = [here, after, load(p + 32)];
+            write_links_avx512(links, opposite, link, twin(2));
+            decline_lanes_avx512(declined, p, several | one & !twins);
+            window = [window[1], window[2], load(p + 32)];
         }
         true
     }
@@ -420,7 +338,7 @@ impl EdgeKeys for VertexKeys<'_> {
     /// 7 ms, where the scalar pass (branches, checks and 128-bit keys per triangle)
     /// takes 16.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512cd,popcnt")]
+    #[target_feature(enable = "avx512f,popcnt")]
     unsafe fn rank_and_count_avx512(
         &self,
         first: usize,
@@ -459,7 +377,7 @@ impl EdgeKeys for VertexKeys<'_> {
     /// block compressed to the block's cursor. On the dragon, one core: 5 ms, where
     /// the scalar pass (three cursors a triangle, in a chain) takes 9.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,avx512cd,popcnt,bmi2")]
+    #[target_feature(enable = "avx512f,popcnt,bmi2")]
     unsafe fn write_out_avx512(
         &self,
         first: usize,

@@ -19,7 +19,7 @@
 //! input, by cell of space and key hash for position keys). Its hot loops, ranking the
 //! triangles' sides and searching the runs, take a pairing method's own AVX-512
 //! kernels where it has them and the CPU too ([`EdgeKeys::rank_and_count_avx512`],
-//! [`EdgeKeys::couple_block_avx512`] or [`EdgeKeys::couple_pairs_avx512`]); the scalar
+//! [`EdgeKeys::couple_block_avx512`]); the scalar
 //! loops are the reference the tests hold them to. Twins are written as links ([`Links`]), listed in the order of each
 //! triangle's keys, which carry the couple's rank at the other end. When no edge has
 //! more than two half-edges, a triangle's whole matching state is then one byte, the
@@ -131,30 +131,20 @@ pub(super) trait EdgeKeys: Sync {
     /// as it sorts the block, before it searches the runs. None by default.
     #[inline]
     fn prefetch_couple(&self, _h: &Self::HalfEdge, _stage: u32, _ranks: &[u8]) {}
-    /// [`couple_pairs`] for a run of at most 16 half-edges in AVX-512 registers, for
-    /// keys that have such a kernel (else `None`), which writes the links of the
-    /// couples it finds only.
+    /// The twins of a whole block sorted by run in AVX-512, for keys that have such a
+    /// kernel (else false, having done nothing), where runs of at most
+    /// [`BLOCK_WINDOW`] half-edges are sure to be right (each is searched in a window
+    /// about each half-edge: [`window_matches_avx512`]): the links of the couples it
+    /// finds written, as [`couple_pairs`] writes them, and the half-edges whose runs
+    /// it leaves to [`couple_run`] listed in `declined` (by place in `sorted`), those
+    /// with an edge of three or more half-edges among them. `words` is scratch space.
     ///
     /// # Safety
-    /// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]); as [`couple_pairs`],
-    /// the run's slots in `links` are this thread's.
-    unsafe fn couple_pairs_avx512(&self, _run: &[Self::HalfEdge], _links: &Links) -> Option<bool> {
-        None
-    }
-    /// The twins of a whole block sorted by run (run `r` ending at `ends[r]`) in
-    /// AVX-512, for keys that have such a kernel (else false, having done nothing):
-    /// the links of the couples it finds written, as [`couple_pairs`] writes them,
-    /// and the runs it leaves to [`couple_run`] listed in `declined` (by index, in any
-    /// order, perhaps more than once): those longer than [`MAX_WINDOW`] and those with
-    /// an edge of three or more half-edges. `words` is scratch space.
-    ///
-    /// # Safety
-    /// The CPU has AVX-512 F and CD, and POPCNT ([`has_avx512_conflict`]); the block's
-    /// slots in `links` are this thread's.
+    /// The CPU has AVX-512 F and POPCNT ([`has_avx512`]); the block's slots in `links`
+    /// are this thread's.
     unsafe fn couple_block_avx512(
         &self,
         _sorted: &[Self::HalfEdge],
-        _ends: &[u32],
         _links: &Links,
         _words: &mut Vec<u32>,
         _declined: &mut Vec<u32>,
@@ -168,7 +158,7 @@ pub(super) trait EdgeKeys: Sync {
     /// there is no kernel); the scalar pass does the rest.
     ///
     /// # Safety
-    /// The CPU has AVX-512 F and CD, and POPCNT ([`has_avx512_conflict`]).
+    /// The CPU has AVX-512 F and POPCNT ([`has_avx512`]).
     unsafe fn rank_and_count_avx512(
         &self,
         _first: usize,
@@ -252,9 +242,9 @@ impl Couples {
     /// half-edges (in the order written, which keeps each triangle's in side order),
     /// among which every edge's are found by comparing edges. Parts of the triangles,
     /// then blocks, on the pool's threads. When `avx512` (which the CPU must have:
-    /// [`has_avx512_conflict`]), the passes take the kernels
+    /// [`has_avx512`]), the passes take the kernels
     /// [`EdgeKeys::rank_and_count_avx512`], [`EdgeKeys::write_out_avx512`] and
-    /// [`EdgeKeys::couple_pairs_avx512`], where the keys have them.
+    /// [`EdgeKeys::couple_block_avx512`], where the keys have them.
     pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K, avx512: bool) -> Self {
         let n = triangle_count;
         let blocks = keys.blocks().max(1);
@@ -360,21 +350,10 @@ impl Couples {
                 match avx512 {
                     // SAFETY: `avx512` says the CPU has the features.
                     #[cfg(target_arch = "x86_64")]
-                    true => unsafe {
-                        if keys.couple_block_avx512(sorted, ends, links, words, declined) {
-                            declined.sort_unstable();
-                            declined.dedup();
-                            for &r in declined.iter() {
-                                let from = r.checked_sub(1).map_or(0, |r| ends[r as usize]);
-                                let run = &sorted[from as usize..ends[r as usize] as usize];
-                                couple_run(run, keys, links, extra);
-                            }
-                            declined.clear();
-                        } else {
-                            couple_runs_avx512(sorted, ends, keys, links, extra)
-                        }
-                    },
-                    _ => couple_runs::<K, false>(sorted, ends, keys, links, extra),
+                    true if unsafe {
+                        couple_block(sorted, ends, keys, links, extra, words, declined)
+                    } => {}
+                    _ => couple_runs(sorted, ends, keys, links, extra),
                 }
                 scratch
             })
@@ -493,14 +472,12 @@ impl<K: EdgeKeys> Default for BlockScratch<K> {
     }
 }
 
-/// Whether this CPU has AVX-512 F and CD (conflict detection), and POPCNT and BMI2 (as
-/// every such CPU does), for the AVX-512 kernels of [`EdgeKeys`] (detected once, then
-/// a cached flag).
-pub(crate) fn has_avx512_conflict() -> bool {
+/// Whether this CPU has AVX-512 F, and POPCNT and BMI2 (as every such CPU does), for
+/// the AVX-512 kernels of [`EdgeKeys`] (detected once, then a cached flag).
+pub(crate) fn has_avx512() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx512f")
-            && std::arch::is_x86_feature_detected!("avx512cd")
             && std::arch::is_x86_feature_detected!("popcnt")
             && std::arch::is_x86_feature_detected!("bmi2")
     }
@@ -548,32 +525,6 @@ pub(super) unsafe fn load_records<const W: usize>(
             _mm512_permutex2var_epi32(v[2], index, v[3]),
         )
     })
-}
-
-/// The twins within a run of half-edges in AVX-512 lanes (the run's lanes are
-/// `run_lanes`, from lane 0): `vpconflictd` gives each lane the lanes before it with the
-/// same `edge`. `None` when a run lane has two or more (an edge of three or more
-/// half-edges); else the lanes that have one (each the second half-edge of an edge of
-/// two) and, in those, the lane of its twin.
-///
-/// # Safety
-/// The CPU has AVX-512 F and CD.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512cd")]
-#[inline]
-pub(super) unsafe fn twin_lanes(
-    edge: std::arch::x86_64::__m512i,
-    run_lanes: std::arch::x86_64::__mmask16,
-) -> Option<(std::arch::x86_64::__mmask16, std::arch::x86_64::__m512i)> {
-    use std::arch::x86_64::*;
-    let earlier = _mm512_conflict_epi32(edge);
-    let lowest = _mm512_and_epi32(earlier, _mm512_sub_epi32(_mm512_setzero_si512(), earlier));
-    if _mm512_mask_cmpgt_epu32_mask(run_lanes, earlier, lowest) != 0 {
-        return None;
-    }
-    let second = _mm512_mask_test_epi32_mask(run_lanes, earlier, earlier);
-    let twin_lane = _mm512_sub_epi32(_mm512_set1_epi32(31), _mm512_lzcnt_epi32(earlier));
-    Some((second, twin_lane))
 }
 
 /// The most vertices [`load_triangles_avx512`] takes: gathers take i32 offsets, and
@@ -780,11 +731,199 @@ pub(super) unsafe fn for_each_block_avx512(
     }
 }
 
+/// [`EdgeKeys::couple_block_avx512`] on a block sorted by run, run `r` ending at
+/// `ends[r]`, then [`couple_run`] on the runs it declines and on those longer than
+/// [`BLOCK_WINDOW`]. False where the keys have no such kernel.
+///
+/// # Safety
+/// As [`EdgeKeys::couple_block_avx512`].
+#[cfg(target_arch = "x86_64")]
+unsafe fn couple_block<K: EdgeKeys>(
+    sorted: &[K::HalfEdge],
+    ends: &[u32],
+    keys: &K,
+    links: &Links,
+    extra: &mut Vec<ExtraCouple>,
+    words: &mut Vec<u32>,
+    declined: &mut Vec<u32>,
+) -> bool {
+    declined.clear();
+    if !keys.couple_block_avx512(sorted, links, words, declined) {
+        return false;
+    }
+    let runs = ends.len();
+    for h in declined.iter_mut() {
+        *h = keys.run(&sorted[*h as usize], runs) as u32;
+    }
+    let mut from = 0;
+    for (r, &end) in ends.iter().enumerate() {
+        if end - from > BLOCK_WINDOW as u32 {
+            declined.push(r as u32);
+        }
+        from = end;
+    }
+    declined.sort_unstable();
+    declined.dedup();
+    for &r in declined.iter() {
+        let from = r.checked_sub(1).map_or(0, |r| ends[r as usize]);
+        couple_run(
+            &sorted[from as usize..ends[r as usize] as usize],
+            keys,
+            links,
+            extra,
+        );
+    }
+    true
+}
+
+/// The longest run whose twins [`EdgeKeys::couple_block_avx512`] is sure to find: the
+/// window of [`window_matches_avx512`] reaches the rest of the run from any of its
+/// half-edges.
+pub(super) const BLOCK_WINDOW: usize = 16;
+
+/// Writes the words that [`window_matches_avx512`] compares, one per half-edge of a
+/// block of `len`, into `words`: `word(p)` gives those of half-edges `p..p + 16`, kept
+/// in the block's lanes. Before them, [`BLOCK_WINDOW`] words, and after the last
+/// group, twice that, of -1: past the block, words that no half-edge has, or that
+/// the kernels check like any other. Returns where half-edge 0's word is.
+///
+/// # Safety
+/// The CPU has AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn block_words_avx512(
+    words: &mut Vec<u32>,
+    len: usize,
+    mut word: impl FnMut(usize) -> std::arch::x86_64::__m512i,
+) -> *const i32 {
+    use std::arch::x86_64::*;
+    let groups = len.div_ceil(16);
+    words.clear();
+    words.reserve(16 * groups + 3 * BLOCK_WINDOW);
+    let start = words.as_mut_ptr() as *mut i32;
+    let none = _mm512_set1_epi32(-1);
+    let store = |at: usize, v| _mm512_storeu_si512(start.add(at) as *mut __m512i, v);
+    store(0, none);
+    for g in 0..groups {
+        let p = 16 * g;
+        let in_block = ((1u32 << (len - p).min(16)) - 1) as __mmask16;
+        store(
+            BLOCK_WINDOW + p,
+            _mm512_mask_blend_epi32(in_block, none, word(p)),
+        );
+    }
+    for at in [0, 16].map(|a| BLOCK_WINDOW + 16 * groups + a) {
+        store(at, none);
+    }
+    words.set_len(16 * groups + 3 * BLOCK_WINDOW);
+    start.add(BLOCK_WINDOW)
+}
+
+/// Each word of half-edges `p..p + 16` of a block (those of `lanes`) compared with the
+/// [`BLOCK_WINDOW`] − 1 before it and after it, at `word` as [`block_words_avx512`]
+/// wrote them: every match adds 64 plus its signed distance to a sum, which then
+/// tells at once no match, one match and where, or more. Returns the lanes with one
+/// match, those with more, and in the first, the match's lane from lane 0 of half-edge
+/// `p`'s group of 16: −15 to 30.
+///
+/// # Safety
+/// The CPU has AVX-512 F; `word` is as [`block_words_avx512`] returns it, and `p` a
+/// multiple of 16 in the block.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn window_matches_avx512(
+    word: *const i32,
+    p: usize,
+    lanes: std::arch::x86_64::__mmask16,
+) -> (
+    std::arch::x86_64::__mmask16,
+    std::arch::x86_64::__mmask16,
+    std::arch::x86_64::__m512i,
+) {
+    use std::arch::x86_64::*;
+    let load = |at: *const i32| _mm512_loadu_si512(at as *const __m512i);
+    let edge = load(word.add(p));
+    let mut matches = _mm512_setzero_si512();
+    for d in 1..BLOCK_WINDOW {
+        for (at, distance) in [
+            (word.add(p + d), d as i32),
+            (word.add(p).sub(d), -(d as i32)),
+        ] {
+            matches = _mm512_mask_add_epi32(
+                matches,
+                _mm512_cmpeq_epi32_mask(edge, load(at)),
+                matches,
+                _mm512_set1_epi32(64 + distance),
+            );
+        }
+    }
+    // One match: 64 plus its distance, 49 to 79; two or more: 98 or more.
+    let one = _mm512_mask_cmple_epu32_mask(
+        lanes,
+        _mm512_sub_epi32(matches, _mm512_set1_epi32(49)),
+        _mm512_set1_epi32(30),
+    );
+    let several = _mm512_mask_cmpgt_epu32_mask(lanes, matches, _mm512_set1_epi32(79));
+    let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    let at = _mm512_add_epi32(lane, _mm512_sub_epi32(matches, _mm512_set1_epi32(64)));
+    (one, several, at)
+}
+
+/// The lanes `at` (−16 to 31, as [`window_matches_avx512`] gives them) of three
+/// consecutive groups of 16, `[before, here, after]`.
+///
+/// # Safety
+/// The CPU has AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn lanes_at_avx512(
+    [before, here, after]: [std::arch::x86_64::__m512i; 3],
+    at: std::arch::x86_64::__m512i,
+) -> std::arch::x86_64::__m512i {
+    use std::arch::x86_64::*;
+    let ahead = _mm512_cmpge_epi32_mask(at, _mm512_setzero_si512());
+    let at_before = _mm512_add_epi32(at, _mm512_set1_epi32(16));
+    _mm512_mask_blend_epi32(
+        ahead,
+        _mm512_permutex2var_epi32(before, at_before, here),
+        _mm512_permutex2var_epi32(here, at, after),
+    )
+}
+
+/// The places `p + lane` of the lanes `lanes` of half-edges `p..p + 16`, appended to
+/// `declined`.
+///
+/// # Safety
+/// The CPU has AVX-512 F and POPCNT.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,popcnt")]
+#[inline]
+pub(super) unsafe fn decline_lanes_avx512(
+    declined: &mut Vec<u32>,
+    p: usize,
+    lanes: std::arch::x86_64::__mmask16,
+) {
+    use std::arch::x86_64::*;
+    if lanes != 0 {
+        declined.reserve(16);
+        let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+        let place = _mm512_add_epi32(_mm512_set1_epi32(p as i32), lane);
+        let destination = declined.as_mut_ptr() as *mut i32;
+        declined.set_len(append_lanes_avx512(
+            destination,
+            declined.len(),
+            lanes,
+            place,
+        ));
+    }
+}
+
 /// Couple the runs of a block sorted by run, run `r` ending at `ends[r]`
-/// ([`couple_pairs`], or [`couple_run`] where that declines), with the AVX-512 run
-/// search when `AVX512`.
-#[inline(always)]
-fn couple_runs<K: EdgeKeys, const AVX512: bool>(
+/// ([`couple_pairs`], or [`couple_run`] where that declines).
+fn couple_runs<K: EdgeKeys>(
     sorted: &[K::HalfEdge],
     ends: &[u32],
     keys: &K,
@@ -795,48 +934,19 @@ fn couple_runs<K: EdgeKeys, const AVX512: bool>(
     for &end in ends {
         let run = &sorted[from..end as usize];
         from = end as usize;
-        if !couple_pairs::<K, AVX512>(run, keys, links) {
+        if !couple_pairs(run, keys, links) {
             couple_run(run, keys, links, extra);
         }
     }
-}
-
-/// [`couple_runs`] compiled for AVX-512, so that [`EdgeKeys::couple_pairs_avx512`]
-/// inlines into the loop.
-///
-/// # Safety
-/// The CPU has AVX-512 F and CD ([`has_avx512_conflict`]).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f,avx512cd")]
-unsafe fn couple_runs_avx512<K: EdgeKeys>(
-    sorted: &[K::HalfEdge],
-    ends: &[u32],
-    keys: &K,
-    links: &Links,
-    extra: &mut Vec<ExtraCouple>,
-) {
-    couple_runs::<K, true>(sorted, ends, keys, links, extra);
 }
 
 /// Couple the half-edges of one run when it is at most [`HalfEdge::WINDOW`] long and
 /// every edge in it has at most two: two on one edge couple when they may, and their
 /// links are written. Returns false, having written nothing that [`couple_run`] will
 /// not write again, otherwise.
-/// When `AVX512` (which the CPU must have), a half-edge's own kernel runs instead
-/// where it has one.
 #[inline(always)]
-fn couple_pairs<K: EdgeKeys, const AVX512: bool>(
-    run: &[K::HalfEdge],
-    keys: &K,
-    links: &Links,
-) -> bool {
+fn couple_pairs<K: EdgeKeys>(run: &[K::HalfEdge], keys: &K, links: &Links) -> bool {
     type H<K> = <K as EdgeKeys>::HalfEdge;
-    if AVX512 && run.len() <= 16 {
-        // SAFETY: AVX512 is set only when the CPU has the features.
-        if let Some(coupled) = unsafe { keys.couple_pairs_avx512(run, links) } {
-            return coupled;
-        }
-    }
     if run.len() > H::<K>::WINDOW {
         return false;
     }
@@ -958,28 +1068,26 @@ impl Links<'_> {
     }
 }
 
-/// Link the couples of a run in AVX-512 lanes, both ends at once, as [`Links::write`]
-/// does: in lanes `coupled`, a half-edge whose link is `link` (its triangle and its
-/// side's rank), and its twin in lane `twin_lane`. A link names its side's slot as
-/// well: `3t + rank` is `link - t`.
+/// Link the half-edges of lanes `coupled` to their twins in AVX-512 lanes, as
+/// [`Links::write`] does: a half-edge whose link is `link` (its triangle and its
+/// side's rank) and whose twin's is `twin_link`. A link names its side's slot as
+/// well: `3t + rank` is `link - t`. One scatter.
 ///
 /// # Safety
 /// The CPU has AVX-512 F; the slots are this thread's.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f")]
 #[inline]
-pub(super) unsafe fn scatter_links_avx512(
+pub(super) unsafe fn write_links_avx512(
     links: &Links,
     coupled: std::arch::x86_64::__mmask16,
     link: std::arch::x86_64::__m512i,
-    twin_lane: std::arch::x86_64::__m512i,
+    twin_link: std::arch::x86_64::__m512i,
 ) {
     use std::arch::x86_64::*;
-    let twin_link = _mm512_permutexvar_epi32(twin_lane, link);
-    let slot = |link| _mm512_sub_epi32(link, _mm512_srli_epi32::<2>(link));
+    let slot = _mm512_sub_epi32(link, _mm512_srli_epi32::<2>(link));
     let across = links.across.0 as *mut i32;
-    _mm512_mask_i32scatter_epi32::<4>(across, coupled, slot(link), twin_link);
-    _mm512_mask_i32scatter_epi32::<4>(across, coupled, slot(twin_link), link);
+    _mm512_mask_i32scatter_epi32::<4>(across, coupled, slot, twin_link);
 }
 
 /// A couple on an edge of three or more half-edges, seen from `triangle`.

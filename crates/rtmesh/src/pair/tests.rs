@@ -1,5 +1,5 @@
 use super::greedy::{pair_sah, pair_sah_reference, pair_sah_with, sorted_half_edge_table};
-use super::suitor::has_avx512_conflict;
+use super::suitor::has_avx512;
 use super::*;
 use crate::mesh::weld_exact;
 use glam::Vec3;
@@ -168,10 +168,10 @@ fn random_mesh() -> impl Strategy<Value = TriMesh> {
 }
 
 /// The kernels of [`pair_sah_with`] and [`compressed::pair_sah_compressed_with`] that
-/// this CPU runs: the scalar ones, and the AVX-512 ones where it has AVX-512 F and CD.
+/// this CPU runs: the scalar ones, and the AVX-512 ones where it has AVX-512 ([`has_avx512`]).
 fn kernel_choices() -> Vec<bool> {
     let mut searches = vec![false];
-    if has_avx512_conflict() {
+    if has_avx512() {
         searches.push(true);
     }
     searches
