@@ -272,7 +272,7 @@ unsafe fn key_word_offsets(k: usize, w: usize) -> std::arch::x86_64::__m512i {
     )
 }
 
-/// The most triangles the run kernel gathers corners from: vertex `3t + corner` of
+/// The most triangles the block kernel gathers corners from: vertex `3t + corner` of
 /// the triangles must fit a gather's i32 offset, as `3v + axis` of the positions does.
 #[cfg(target_arch = "x86_64")]
 const MAX_GATHER_TRIANGLES: usize = MAX_GATHER_VERTICES;
@@ -281,7 +281,7 @@ const MAX_GATHER_TRIANGLES: usize = MAX_GATHER_VERTICES;
 /// field would be a NaN's). The AVX-512 keys write it as words of -1.
 const EXCLUDED_KEY: EdgeKey = [u32::MAX; 3];
 
-/// The run kernel's 32-bit signature of key `[x, y, z]` is `a·x ⊕ b·y ⊕ z` (wrapping)
+/// The block kernel's 32-bit signature of key `[x, y, z]` is `a·x ⊕ b·y ⊕ z` (wrapping)
 /// with these `[a, b]`.
 const SIGNATURE_FACTORS: [u32; 2] = [0x9E37_79B1, 0x85EB_CA77];
 
@@ -665,7 +665,7 @@ impl EdgeKeys for PositionKeys<'_> {
     /// them there, where their misses were the twin search's largest cost. On the
     /// dragon, one core, the runs' search took 34 ms as a soup (63 without prefetches)
     /// and, welded, 27 with the triangles prefetched (35 without; prefetching the
-    /// corners too cost 6 ms more than it saved). The rank bytes, which the run kernel
+    /// corners too cost 6 ms more than it saved). The rank bytes, which the block kernel
     /// gathers: 79.6 against 81.8 ms in all (side by side, min of eight).
     #[inline]
     fn prefetch_couple(&self, h: &PositionHalfEdge, stage: u32, ranks: &[u8]) {
@@ -688,7 +688,7 @@ impl EdgeKeys for PositionKeys<'_> {
     }
 }
 
-/// A half-edge and its key (four words in this order, which the run kernel loads).
+/// A half-edge and its key (four words in this order, which the block kernel loads).
 #[derive(Clone, Copy, Default)]
 #[repr(C)]
 pub(super) struct PositionHalfEdge {

@@ -445,7 +445,7 @@ impl EdgeKeys for VertexKeys<'_> {
 }
 
 /// A half-edge on its way to its smaller vertex's run (three words in this order, which
-/// [`EdgeKeys::couple_pairs_avx512`] loads).
+/// the AVX-512 kernels write and load).
 #[derive(Clone, Copy, Default)]
 #[repr(C)]
 struct VertexHalfEdge {
