@@ -347,13 +347,14 @@ impl Couples {
                 );
                 // `start[r]` is now where run r ends.
                 let ends = &start[..runs];
-                match avx512 {
-                    // SAFETY: `avx512` says the CPU has the features.
-                    #[cfg(target_arch = "x86_64")]
-                    true if unsafe {
-                        couple_block(sorted, ends, keys, links, extra, words, declined)
-                    } => {}
-                    _ => couple_runs(sorted, ends, keys, links, extra),
+                // SAFETY: `avx512` says the CPU has the features.
+                #[cfg(target_arch = "x86_64")]
+                let coupled = avx512
+                    && unsafe { couple_block(sorted, ends, keys, links, extra, words, declined) };
+                #[cfg(not(target_arch = "x86_64"))]
+                let coupled = false;
+                if !coupled {
+                    couple_runs(sorted, ends, keys, links, extra);
                 }
                 scratch
             })
