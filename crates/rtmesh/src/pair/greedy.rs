@@ -30,9 +30,9 @@
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
     append_lanes_avx512, block_words_avx512, decline_lanes_avx512, edge_bbsa_avx512,
-    for_each_block_avx512, lanes_at_avx512, load_group_avx512, load_records, load_triangles_avx512,
-    rank_and_count_lanes, rank_of_side_lanes, window_matches_avx512, write_links_avx512,
-    MAX_GATHER_VERTICES,
+    for_each_block_avx512, lanes_at_avx512, load_block_group, load_group_avx512, load_records,
+    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, window_matches_avx512,
+    write_links_avx512, MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge, Links,
@@ -293,9 +293,7 @@ impl EdgeKeys for VertexKeys<'_> {
         // Half-edges p to p + 15 as [smaller, other, link], and the lanes that are
         // in the block; past its end, a larger vertex that no half-edge has.
         let load = |p: usize| {
-            let count = len.saturating_sub(p).min(16);
-            let [smaller, other, link] = load_records::<3>(records.wrapping_add(3 * p), count);
-            let lanes = ((1u32 << count) - 1) as __mmask16;
+            let ([smaller, other, link], lanes) = load_block_group::<3>(records, len, p);
             let other = _mm512_mask_blend_epi32(lanes, larger_mask, other);
             ([smaller, other, link], lanes)
         };

@@ -808,10 +808,9 @@ pub(super) unsafe fn block_words_avx512(
     store(0, none);
     for g in 0..groups {
         let p = 16 * g;
-        let in_block = ((1u32 << (len - p).min(16)) - 1) as __mmask16;
         store(
             BLOCK_WINDOW + p,
-            _mm512_mask_blend_epi32(in_block, none, word(p)),
+            _mm512_mask_blend_epi32(block_lanes(len, p), none, word(p)),
         );
     }
     for at in [0, 16].map(|a| BLOCK_WINDOW + 16 * groups + a) {
@@ -819,6 +818,34 @@ pub(super) unsafe fn block_words_avx512(
     }
     words.set_len(16 * groups + 3 * BLOCK_WINDOW);
     start.add(BLOCK_WINDOW)
+}
+
+/// The lanes of half-edges `p..p + 16` that are in a block of `len` (none past its end).
+#[cfg(target_arch = "x86_64")]
+#[inline]
+pub(super) fn block_lanes(len: usize, p: usize) -> std::arch::x86_64::__mmask16 {
+    ((1u32 << len.saturating_sub(p).min(16)) - 1) as std::arch::x86_64::__mmask16
+}
+
+/// Half-edges `p..p + 16` of a block of `len` records of `W` words at `records`, as
+/// [`load_records`] gives them (0 past the block's end), and the lanes in the block.
+///
+/// # Safety
+/// The CPU has AVX-512 F; the block's records are readable.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn load_block_group<const W: usize>(
+    records: *const i32,
+    len: usize,
+    p: usize,
+) -> (
+    [std::arch::x86_64::__m512i; W],
+    std::arch::x86_64::__mmask16,
+) {
+    let count = len.saturating_sub(p).min(16);
+    let words = load_records::<W>(records.wrapping_add(W * p), count);
+    (words, block_lanes(len, p))
 }
 
 /// Each word of half-edges `p..p + 16` of a block (those of `lanes`) compared with the
