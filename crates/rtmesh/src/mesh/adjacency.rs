@@ -123,12 +123,13 @@ pub(crate) fn has_edges(t: &[u32; 3], vertex_count: usize) -> bool {
 }
 
 /// The length of the parts that `triangle_count` triangles split into for a counting
-/// sort: one part per pool thread, or one below 32k triangles.
+/// sort: one part per pool thread, or one below 32k triangles. A multiple of 16, so
+/// that parts are whole groups of the 16-lane AVX-512 passes.
 pub(crate) fn triangle_part_len(triangle_count: usize) -> usize {
     let parts = rayon::current_num_threads()
         .min(triangle_count >> 15)
         .max(1);
-    triangle_count.div_ceil(parts).max(1)
+    triangle_count.div_ceil(parts).next_multiple_of(16).max(16)
 }
 
 /// A scatter's destination, shared by threads that write disjoint slots of it (the
