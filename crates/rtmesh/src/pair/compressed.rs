@@ -31,13 +31,13 @@
 #[cfg(target_arch = "x86_64")]
 use super::suitor::{
     append_lanes_avx512, block_words_avx512, decline_lanes_avx512, edge_bbsa_avx512,
-    for_each_block_avx512, lanes_at_avx512, load_block_group, load_group_avx512,
-    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, window_matches_avx512,
-    write_links_avx512, MAX_GATHER_VERTICES,
+    for_each_block_avx512, lanes_at_avx512, load_block_group, load_group_avx512, load_records,
+    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, records_of_lanes_avx512,
+    window_matches_avx512, write_links_avx512, MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge, Links,
-    MAX_LINKED_TRIANGLES,
+    RankedSides, MAX_LINKED_TRIANGLES,
 };
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::geom::Aabb;
@@ -65,8 +65,8 @@ pub(super) fn pair_sah_compressed_with(mesh: &TriMesh, avx512: bool) -> Pairing 
     if mesh.triangle_count() > MAX_LINKED_TRIANGLES {
         return pair_sah_compressed_reference(mesh);
     }
-    let keys = PositionKeys::new(mesh, avx512);
-    let couples = Couples::link(mesh.triangle_count(), &keys, avx512);
+    let (keys, ranked) = PositionKeys::new(mesh, avx512);
+    let couples = Couples::link(&keys, ranked, avx512);
     match_greedily(
         couples,
         |t| [0, 1, 2].map(|k| couple_key(keys.side_key(t, k), 0)),
@@ -152,14 +152,23 @@ fn couple_key(key: EdgeKey, rank: u32) -> u128 {
 
 /// The quantisation of edge keys in the box of the mesh's finite positions (which holds
 /// every triangle that takes part; one pass over the vertices where the triangles'
-/// boxes would take three gathers per triangle).
+/// boxes would take three gathers per triangle), and the grid of cells of that box
+/// that blocks the twin search.
 struct Quantiser {
     min: Vec3,
     scale: Vec3,
+    /// Cells per axis of the grid, log2.
+    cell_bits: u32,
 }
 
 impl Quantiser {
     fn new(mesh: &TriMesh) -> Self {
+        // A surface crosses about (cells per axis)² cells.
+        let cell_bits = ((3 * mesh.triangle_count() / BLOCK_HALF_EDGES)
+            .max(1)
+            .ilog2()
+            / 2)
+        .min(8);
         let bounds = mesh
             .positions
             .par_iter()
@@ -178,7 +187,49 @@ impl Quantiser {
         Self {
             min: bounds.min,
             scale: Vec3::splat(FIELD_MAX) / bounds.extent().max(Vec3::splat(f32::MIN_POSITIVE)),
+            cell_bits,
         }
+    }
+
+    /// The cell of the midpoint of the edge with key `key`.
+    #[inline]
+    fn cell(&self, key: EdgeKey) -> usize {
+        let [x, y, z] = midpoint_fields(key).map(|f| f as usize >> (FIELD_BITS - self.cell_bits));
+        (x << self.cell_bits | y) << self.cell_bits | z
+    }
+
+    /// [`Quantiser::cell`] in AVX-512 lanes, of three sides' keys (`[side][word]`).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512 F.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    unsafe fn cells_avx512(
+        &self,
+        keys: &[[std::arch::x86_64::__m512i; 3]; 3],
+    ) -> [std::arch::x86_64::__m512i; 3] {
+        use std::arch::x86_64::*;
+        let field = _mm512_set1_epi32((1 << FIELD_BITS) - 1);
+        let cell_shift = _mm512_set1_epi32((FIELD_BITS - self.cell_bits) as i32);
+        let cell_bits = _mm512_set1_epi32(self.cell_bits as i32);
+        // As `midpoint_fields`, then `cell`.
+        let cell = |[high, middle, low]: [__m512i; 3]| {
+            let fields = [
+                _mm512_or_si512(
+                    _mm512_slli_epi32::<16>(high),
+                    _mm512_srli_epi32::<16>(middle),
+                ),
+                _mm512_or_si512(_mm512_slli_epi32::<8>(middle), _mm512_srli_epi32::<24>(low)),
+                low,
+            ];
+            let coordinate =
+                |f: usize| _mm512_srlv_epi32(_mm512_and_si512(fields[f], field), cell_shift);
+            let [x, y, z] = [coordinate(0), coordinate(1), coordinate(2)];
+            let xy = _mm512_or_si512(_mm512_sllv_epi32(x, cell_bits), y);
+            _mm512_or_si512(_mm512_sllv_epi32(xy, cell_bits), z)
+        };
+        [cell(keys[0]), cell(keys[1]), cell(keys[2])]
     }
 
     /// The key of edge `p–q` (symmetric in `p` and `q`).
@@ -197,42 +248,49 @@ impl Quantiser {
 
     /// The keys of the sides of triangles `first..`, 16 at a time, into `sides` (laid
     /// out as [`key_slot`] says; [`EXCLUDED_KEY`]s for a triangle that takes no part),
-    /// as [`Quantiser::key`] gives them: the same floating-point operations in the
-    /// same order, lane-wise, so the same bits. Returns how many triangles it keyed (a
-    /// multiple of 16, whole groups of the mesh's triangles; none past
-    /// [`MAX_GATHER_VERTICES`] vertices).
+    /// as [`Quantiser::key`] gives them: the same floating-point operations in the same
+    /// order, lane-wise, so the same bits. While they are in registers, the triangles
+    /// are ranked into `ranks` (one byte each, from `first`) and their half-edges
+    /// counted by cell into `count`, lane-wise as the scalar pass does
+    /// ([`rank_and_count_lanes`]): on the dragon, one core, Zen 4, the first pass of
+    /// [`Couples::link`] took 3.5–5.8 ms on its own, reading the keys back. Returns how
+    /// many triangles it keyed (a multiple of 16, whole groups of the mesh's
+    /// triangles; none past [`MAX_GATHER_VERTICES`] vertices).
     ///
     /// # Safety
-    /// The CPU has AVX-512 F; `first` is a multiple of 16 and `sides` holds the sides
-    /// of triangles from `first`.
+    /// The CPU has AVX-512 F and POPCNT; `first` is a multiple of 16 and `sides`
+    /// holds the sides of triangles from `first`.
     #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
+    #[target_feature(enable = "avx512f,popcnt")]
     unsafe fn keys_avx512(
         &self,
         mesh: &TriMesh,
         first: usize,
         sides: &mut [MaybeUninit<EdgeKey>],
+        ranks: &mut [u8],
+        count: &mut [u32],
     ) -> usize {
         use std::arch::x86_64::*;
         if mesh.positions.len() > MAX_GATHER_VERTICES {
             return 0;
         }
-        let done = (sides.len() / 3).min(mesh.triangle_count() - first) / 16 * 16;
+        let done = ranks.len() / 16 * 16;
         let words = sides.as_mut_ptr() as *mut i32;
         let [min, scale] = [self.min, self.scale].map(|v| v.to_array().map(|c| _mm512_set1_ps(c)));
         let (zero, half) = (_mm512_setzero_ps(), _mm512_set1_ps(0.5));
         let field_max = _mm512_set1_ps(FIELD_MAX);
         for g in (0..done).step_by(16) {
             let (_, corner, active) = load_triangles_avx512(mesh, first + g);
-            for k in 0..3 {
+            let side_keys = |k: usize| {
                 let (p, q) = (&corner[k], &corner[(k + 1) % 3]);
                 // As `key`; `max` gives 0 for NaN, which lands on 0 all the same.
-                let [x, y, z] = [0, 1, 2].map(|axis| {
+                let field = |axis: usize| {
                     let sum = _mm512_mul_ps(_mm512_add_ps(p[axis], q[axis]), half);
                     let mid = _mm512_mul_ps(_mm512_sub_ps(sum, min[axis]), scale[axis]);
                     let clamped = _mm512_min_ps(_mm512_max_ps(mid, zero), field_max);
                     _mm512_cvttps_epi32(_mm512_add_ps(clamped, half))
-                });
+                };
+                let [x, y, z] = [field(0), field(1), field(2)];
                 let bbsa = _mm512_srli_epi32::<{ 31 - FIELD_BITS }>(_mm512_castps_si512(
                     edge_bbsa_avx512(p, q),
                 ));
@@ -241,10 +299,17 @@ impl Quantiser {
                     _mm512_or_si512(_mm512_slli_epi32::<16>(x), _mm512_srli_epi32::<8>(y)),
                     _mm512_or_si512(_mm512_slli_epi32::<24>(y), z),
                 ];
-                let key =
-                    key.map(|word| _mm512_mask_blend_epi32(active, _mm512_set1_epi32(-1), word));
-                store_side_keys(words.add(9 * g + 48 * k), key);
-            }
+                let excluded = |word| _mm512_mask_blend_epi32(active, _mm512_set1_epi32(-1), word);
+                let key = [excluded(key[0]), excluded(key[1]), excluded(key[2])];
+                let at = words.add(9 * g + 48 * k);
+                for (v, words) in records_of_lanes_avx512(key).into_iter().enumerate() {
+                    _mm512_storeu_si512(at.add(16 * v) as *mut __m512i, words);
+                }
+                key
+            };
+            let keys = [side_keys(0), side_keys(1), side_keys(2)];
+            let cells = self.cells_avx512(&keys);
+            rank_and_count_lanes(&keys, cells, active, &mut ranks[g..g + 16], count);
         }
         done
     }
@@ -260,69 +325,6 @@ impl Quantiser {
 #[inline]
 fn key_slot(t: usize, k: usize) -> usize {
     3 * (t & !15) + 16 * k + (t & 15)
-}
-
-/// The 16 lanes `[f(0), .., f(15)]`.
-///
-/// # Safety
-/// The CPU has AVX-512 F.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn lanes_of(f: impl Fn(usize) -> usize) -> std::arch::x86_64::__m512i {
-    let lanes: [i32; 16] = std::array::from_fn(|l| f(l) as i32);
-    std::arch::x86_64::_mm512_loadu_si512(lanes.as_ptr() as *const _)
-}
-
-/// The keys of one side of a group of 16 triangles (as [`key_slot`] lays them out),
-/// from the 48 words at `at`, as their words in lanes (`[high, middle, low]`).
-///
-/// # Safety
-/// The CPU has AVX-512 F; `at` has 48 words.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn load_side_keys(at: *const i32) -> [std::arch::x86_64::__m512i; 3] {
-    use std::arch::x86_64::*;
-    let [a, b, c] = [0, 16, 32].map(|o| _mm512_loadu_si512(at.add(o) as *const _));
-    [0, 1, 2].map(|w| {
-        // Word w of lane l is word 3l + w of the 48: of `a` or `b` below 32, else of `c`.
-        let of_ab = _mm512_permutex2var_epi32(a, lanes_of(|l| (3 * l + w) % 32), b);
-        let from_c = |l: usize| (3 * l + w).checked_sub(32).map_or(l, |m| 16 + m);
-        _mm512_permutex2var_epi32(of_ab, lanes_of(from_c), c)
-    })
-}
-
-/// [`load_side_keys`] the other way: 16 keys' words in lanes stored as 48 words at `at`.
-///
-/// # Safety
-/// The CPU has AVX-512 F; `at` has 48 words.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx512f")]
-#[inline]
-unsafe fn store_side_keys(at: *mut i32, [high, middle, low]: [std::arch::x86_64::__m512i; 3]) {
-    use std::arch::x86_64::*;
-    for j in 0..3 {
-        // Word m = 16j + i of the 48 is word m % 3 of lane m / 3.
-        let lane_word = |i: usize| ((16 * j + i) / 3, (16 * j + i) % 3);
-        let of_high_middle = _mm512_permutex2var_epi32(
-            high,
-            lanes_of(|i| match lane_word(i) {
-                (l, 1) => 16 + l,
-                (l, _) => l,
-            }),
-            middle,
-        );
-        let words = _mm512_permutex2var_epi32(
-            of_high_middle,
-            lanes_of(|i| match lane_word(i) {
-                (l, 2) => 16 + l,
-                _ => i,
-            }),
-            low,
-        );
-        _mm512_storeu_si512(at.add(16 * j) as *mut _, words);
-    }
 }
 
 /// The most triangles the block kernel gathers corners from: vertex `3t + corner` of
@@ -356,8 +358,8 @@ pub(super) struct PositionKeys<'m> {
     /// for a triangle that takes no part (and past the last triangle, to a whole
     /// group).
     pub(super) keys: Vec<EdgeKey>,
-    /// Cells per axis of the block grid, log2.
-    cell_bits: u32,
+    /// The keys' quantisation, whose cells are the blocks.
+    quantiser: Quantiser,
     /// Whether the corners are read to check couples: vertices not shared (more
     /// vertices than triangles, as in a triangle soup), so twins' corners are
     /// different vertices, whose positions [`corners_opposite`] compares.
@@ -365,9 +367,10 @@ pub(super) struct PositionKeys<'m> {
 }
 
 impl<'m> PositionKeys<'m> {
-    /// The keys of `mesh`'s half-edges, with [`Quantiser::keys_avx512`] when `avx512`
-    /// (which the CPU must have).
-    pub(super) fn new(mesh: &'m TriMesh, avx512: bool) -> Self {
+    /// The keys of `mesh`'s half-edges, and the first pass of [`Couples::link`] done
+    /// on them as they are made, with [`Quantiser::keys_avx512`] when `avx512` (which
+    /// the CPU must have).
+    pub(super) fn new(mesh: &'m TriMesh, avx512: bool) -> (Self, RankedSides) {
         let quantiser = Quantiser::new(mesh);
         let active = ActiveTriangles::new(mesh);
         let n = mesh.triangle_count();
@@ -376,39 +379,47 @@ impl<'m> PositionKeys<'m> {
         let len = 3 * n.next_multiple_of(16);
         // Written once, in place of a fill and then the keys.
         let mut keys: Vec<EdgeKey> = vec_on_huge_pages(len);
-        keys.spare_capacity_mut()[..len]
-            .par_chunks_mut(3 * part_len)
-            .enumerate()
-            .for_each(|(p, part)| {
-                let done = if avx512 {
-                    // SAFETY: `avx512` says the CPU has the features; the part starts
-                    // a group.
-                    unsafe { quantiser.keys_avx512(mesh, p * part_len, part) }
-                } else {
-                    0
-                };
-                for (g, group) in part.chunks_exact_mut(48).enumerate().skip(done / 16) {
-                    for (slot, key) in group.iter_mut().enumerate() {
-                        let (t, k) = (p * part_len + 16 * g + slot % 16, slot / 16);
-                        key.write(if t < n && active.get(t) {
-                            let c = mesh.corners(t);
-                            quantiser.key(c[k], c[(k + 1) % 3])
-                        } else {
-                            EXCLUDED_KEY
-                        });
+        let parts = keys.spare_capacity_mut()[..len].par_chunks_mut(3 * part_len);
+        let blocks = 1 << (3 * quantiser.cell_bits);
+        let ranked = RankedSides::by_parts(n, blocks, parts, |p, part, ranks, count| {
+            let first = p * part_len;
+            let done = if avx512 {
+                // SAFETY: `avx512` says the CPU has the features; the part starts a
+                // group.
+                unsafe { quantiser.keys_avx512(mesh, first, part, ranks, count) }
+            } else {
+                0
+            };
+            for (g, group) in part.chunks_exact_mut(48).enumerate().skip(done / 16) {
+                for lane in 0..16 {
+                    let t = first + 16 * g + lane;
+                    let sides = if t < n && active.get(t) {
+                        let c = mesh.corners(t);
+                        [0, 1, 2].map(|k| quantiser.key(c[k], c[(k + 1) % 3]))
+                    } else {
+                        [EXCLUDED_KEY; 3]
+                    };
+                    for (k, &key) in sides.iter().enumerate() {
+                        group[16 * k + lane].write(key);
+                    }
+                    if sides[0] != EXCLUDED_KEY {
+                        ranks[16 * g + lane] = side_ranks(&sides);
+                        for key in sides {
+                            count[quantiser.cell(key)] += 1;
+                        }
                     }
                 }
-            });
+            }
+        });
         // SAFETY: every key was written.
         unsafe { keys.set_len(len) };
-        // A surface crosses about (cells per axis)² cells.
-        let cell_bits = ((3 * n / BLOCK_HALF_EDGES).max(1).ilog2() / 2).min(8);
-        Self {
+        let keys = Self {
             mesh,
             keys,
-            cell_bits,
+            quantiser,
             corners_read: mesh.positions.len() > n,
-        }
+        };
+        (keys, ranked)
     }
 
     /// The key of side `k` of triangle `t`.
@@ -417,10 +428,8 @@ impl<'m> PositionKeys<'m> {
         self.keys[key_slot(t, k)]
     }
 
-    /// Triangles `first..first + 16` in AVX-512 lanes: their sides' keys (`[side][word]`,
-    /// gathered), the sides' blocks, as [`EdgeKeys::block`] computes them, and the
-    /// lanes that take part (side 0's key is not [`EXCLUDED_KEY`], as in
-    /// [`EdgeKeys::side_ranks`]).
+    /// The blocks of the sides of triangles `first..first + 16` in AVX-512 lanes
+    /// (`[side]`), as [`EdgeKeys::block`] computes them.
     ///
     /// # Safety
     /// The CPU has AVX-512 F; `first` is a multiple of 16 and the triangles are the
@@ -428,41 +437,12 @@ impl<'m> PositionKeys<'m> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f")]
     #[inline]
-    unsafe fn keys_and_blocks_avx512(
-        &self,
-        first: usize,
-    ) -> (
-        [[std::arch::x86_64::__m512i; 3]; 3],
-        [std::arch::x86_64::__m512i; 3],
-        std::arch::x86_64::__mmask16,
-    ) {
-        use std::arch::x86_64::*;
+    unsafe fn blocks_avx512(&self, first: usize) -> [std::arch::x86_64::__m512i; 3] {
         let group = &self.keys[key_slot(first, 0)..key_slot(first, 0) + 48];
         let base = group.as_ptr() as *const i32;
-        let keys = [0, 1, 2].map(|k| load_side_keys(base.add(48 * k)));
-        let all_ones = _mm512_set1_epi32(-1);
-        let excluded = _mm512_cmpeq_epi32_mask(keys[0][0], all_ones)
-            & _mm512_cmpeq_epi32_mask(keys[0][1], all_ones)
-            & _mm512_cmpeq_epi32_mask(keys[0][2], all_ones);
-        let field = _mm512_set1_epi32((1 << FIELD_BITS) - 1);
-        let cell_shift = _mm512_set1_epi32((FIELD_BITS - self.cell_bits) as i32);
-        let cell_bits = _mm512_set1_epi32(self.cell_bits as i32);
-        // As `midpoint_fields`, then `block`.
-        let blocks = keys.map(|[high, middle, low]| {
-            let fields = [
-                _mm512_or_si512(
-                    _mm512_slli_epi32::<16>(high),
-                    _mm512_srli_epi32::<16>(middle),
-                ),
-                _mm512_or_si512(_mm512_slli_epi32::<8>(middle), _mm512_srli_epi32::<24>(low)),
-                low,
-            ];
-            let [x, y, z] =
-                fields.map(|f| _mm512_srlv_epi32(_mm512_and_si512(f, field), cell_shift));
-            let xy = _mm512_or_si512(_mm512_sllv_epi32(x, cell_bits), y);
-            _mm512_or_si512(_mm512_sllv_epi32(xy, cell_bits), z)
-        });
-        (keys, blocks, !excluded)
+        let side_keys = |k: usize| load_records::<3>(base.add(48 * k), 16);
+        self.quantiser
+            .cells_avx512(&[side_keys(0), side_keys(1), side_keys(2)])
     }
 
     /// A hash of `key` (its high half picks the run).
@@ -477,7 +457,7 @@ impl EdgeKeys for PositionKeys<'_> {
     type HalfEdge = PositionHalfEdge;
 
     fn blocks(&self) -> usize {
-        1 << (3 * self.cell_bits)
+        1 << (3 * self.quantiser.cell_bits)
     }
 
     /// A power of two, a run for every 2–4 half-edges: in the scalar search's 8-wide
@@ -487,12 +467,6 @@ impl EdgeKeys for PositionKeys<'_> {
     /// 2–4 as per 4–8, and runs longer than 16, which it declines, are rarer.
     fn runs(&self, _: usize, len: usize) -> usize {
         (len / 4).next_power_of_two()
-    }
-
-    #[inline]
-    fn side_ranks(&self, t: usize) -> Option<u8> {
-        let sides = [0, 1, 2].map(|k| self.side_key(t, k));
-        (sides[0] != EXCLUDED_KEY).then(|| side_ranks(&sides))
     }
 
     #[inline]
@@ -541,8 +515,7 @@ impl EdgeKeys for PositionKeys<'_> {
     /// The cell of the edge's midpoint.
     #[inline]
     fn block(&self, h: &PositionHalfEdge) -> usize {
-        let [x, y, z] = midpoint_fields(h.key).map(|f| f as usize >> (FIELD_BITS - self.cell_bits));
-        (x << self.cell_bits | y) << self.cell_bits | z
+        self.quantiser.cell(h.key)
     }
 
     #[inline]
@@ -554,27 +527,8 @@ impl EdgeKeys for PositionKeys<'_> {
         couple_key(h.key, rank)
     }
 
-    /// Sixteen triangles at a time: their keys and blocks loaded
-    /// ([`PositionKeys::keys_and_blocks_avx512`]), then ranked and counted by block
-    /// lane-wise as the scalar pass does ([`rank_and_count_lanes`]).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,popcnt")]
-    unsafe fn rank_and_count_avx512(
-        &self,
-        first: usize,
-        ranks: &mut [u8],
-        count: &mut [u32],
-    ) -> usize {
-        let done = ranks.len() / 16 * 16;
-        for g in (0..done).step_by(16) {
-            let (keys, blocks, active) = self.keys_and_blocks_avx512(first + g);
-            rank_and_count_lanes(&keys, blocks, active, &mut ranks[g..g + 16], count);
-        }
-        done
-    }
-
     /// Sixteen triangles at a time: their blocks computed again
-    /// ([`PositionKeys::keys_and_blocks_avx512`]), then, block by block
+    /// ([`PositionKeys::blocks_avx512`]), then, block by block
     /// ([`for_each_block_avx512`]), each side's ids in the block compressed to the
     /// block's cursor. On the dragon, one core, side by side: 7.8 ms, where the scalar
     /// pass takes 8.6 (its keys' reads, which this gathers again, are most of it).
@@ -591,9 +545,10 @@ impl EdgeKeys for PositionKeys<'_> {
         let destination = destination.0 as *mut i32;
         let done = ranks.len() / 16 * 16;
         for g in (0..done).step_by(16) {
-            let (_, blocks, _) = self.keys_and_blocks_avx512(first + g);
+            let blocks = self.blocks_avx512(first + g);
             let (triangle, _, active) = load_group_avx512(first + g, &ranks[g..]);
-            let ids = [0, 1, 2].map(|k| _mm512_or_epi32(triangle, _mm512_set1_epi32(k)));
+            let id = |k: i32| _mm512_or_epi32(triangle, _mm512_set1_epi32(k));
+            let ids = [id(0), id(1), id(2)];
             for_each_block_avx512(&blocks, active, |b, in_b| {
                 let at = (0..3).fold(cursor[b] as usize, |at, k| {
                     append_lanes_avx512(destination, at, in_b[k], ids[k])
@@ -638,7 +593,8 @@ impl EdgeKeys for PositionKeys<'_> {
         // block; past its end, EXCLUDED_KEY, which no half-edge in a block has.
         let load = |p: usize| {
             let ([high, middle, low, id], lanes) = load_block_group::<4>(records, len, p);
-            let key = [high, middle, low].map(|w| _mm512_mask_blend_epi32(lanes, none, w));
+            let in_block = |w| _mm512_mask_blend_epi32(lanes, none, w);
+            let key = [in_block(high), in_block(middle), in_block(low)];
             (key, id, lanes)
         };
         let word = block_words_avx512(words, len, |p| {
@@ -668,8 +624,8 @@ impl EdgeKeys for PositionKeys<'_> {
                 first_corner,
                 _mm512_set1_epi32(2),
             );
-            let [from, to] = [first_corner, next_corner]
-                .map(|corner| _mm512_mask_i32gather_epi32::<4>(zero, lanes, corner, vertices));
+            let vertex = |corner| _mm512_mask_i32gather_epi32::<4>(zero, lanes, corner, vertices);
+            let [from, to] = [vertex(first_corner), vertex(next_corner)];
             // Its side's rank: the byte of each triangle (four gathered from there),
             // then its two bits of side k.
             let bytes = _mm512_mask_i32gather_epi32::<1>(zero, lanes, t, ranks);
@@ -692,7 +648,10 @@ impl EdgeKeys for PositionKeys<'_> {
         for p in (0..len).step_by(16) {
             let ([high, middle, low, t, from, to, link], lanes) = window[1];
             let (single, several, at) = window_matches_avx512(word, p, lanes);
-            let twin = |field: usize| lanes_at_avx512(window.map(|(h, _)| h[field]), at);
+            let twin = |field: usize| {
+                let [(before, _), (this, _), (after, _)] = &window;
+                lanes_at_avx512([before[field], this[field], after[field]], at)
+            };
             let same_key = _mm512_mask_cmpeq_epi32_mask(single, high, twin(0))
                 & _mm512_cmpeq_epi32_mask(middle, twin(1))
                 & _mm512_cmpeq_epi32_mask(low, twin(2));
@@ -789,7 +748,7 @@ impl HalfEdge for PositionHalfEdge {
 
 #[cfg(test)]
 mod tests {
-    use super::super::suitor::{NO_LINK, RANKS_PADDING};
+    use super::super::suitor::NO_LINK;
     use super::*;
     use crate::mesh::SharedSlice;
 
@@ -806,7 +765,7 @@ mod tests {
             vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::ONE],
             vec![[0, 1, 2], [2, 1, 3]],
         );
-        let keys = PositionKeys::new(&quad, true);
+        let (keys, ranked) = PositionKeys::new(&quad, true);
         // Side 1 of triangle 0 (1 → 2) and side 0 of triangle 1 (2 → 1).
         let [first, second] = [[0, 1], [1, 0]].map(|[t, k]| PositionHalfEdge {
             key: keys.side_key(t, k),
@@ -822,9 +781,8 @@ mod tests {
         };
         twin_in_signature.key[2] = signature(first.key) ^ signature(twin_in_signature.key);
         assert_eq!(signature(twin_in_signature.key), signature(first.key));
-        let ranks = [0, 1].map(|t| keys.side_ranks(t).unwrap());
-        let mut padded = vec![0; 2 + RANKS_PADDING];
-        padded[..2].copy_from_slice(&ranks);
+        let padded = ranked.side_ranks;
+        let ranks = [padded[0], padded[1]];
         let search = |block: &[PositionHalfEdge]| {
             let mut across = vec![NO_LINK; 6];
             let links = Links {

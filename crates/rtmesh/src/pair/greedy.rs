@@ -31,15 +31,16 @@
 use super::suitor::{
     append_lanes_avx512, block_words_avx512, decline_lanes_avx512, edge_bbsa_avx512,
     for_each_block_avx512, lanes_at_avx512, load_block_group, load_group_avx512, load_records,
-    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, window_matches_avx512,
-    write_links_avx512, MAX_GATHER_VERTICES,
+    load_triangles_avx512, rank_and_count_lanes, rank_of_side_lanes, records_of_lanes_avx512,
+    window_matches_avx512, write_links_avx512, MAX_GATHER_VERTICES,
 };
 use super::suitor::{
     has_avx512, match_greedily, rank_of_side, side_ranks, Couples, EdgeKeys, HalfEdge, Links,
-    MAX_LINKED_TRIANGLES,
+    RankedSides, MAX_LINKED_TRIANGLES,
 };
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
-use crate::mesh::{has_edges, SharedSlice, TriMesh};
+use crate::mesh::{has_edges, triangle_part_len, SharedSlice, TriMesh};
+use rayon::prelude::*;
 
 /// One record of the paper's half-edge table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -155,7 +156,7 @@ pub(super) fn pair_sah_with(mesh: &TriMesh, avx512: bool) -> Pairing {
         return pair_sah_reference(mesh);
     }
     let keys = VertexKeys { mesh };
-    let couples = Couples::link(mesh.triangle_count(), &keys, avx512);
+    let couples = Couples::link(&keys, keys.rank_sides(avx512), avx512);
     match_greedily(couples, |t| keys.side_keys(t).unwrap_or_default(), avx512)
 }
 
@@ -196,22 +197,95 @@ impl VertexKeys<'_> {
         };
         Some([key(0), key(1), key(2)])
     }
+
+    /// The ranks of triangle `t`'s sides' keys (as in [`side_ranks`]), or `None` for a
+    /// triangle that takes no part.
+    #[inline]
+    fn side_ranks(&self, t: usize) -> Option<u8> {
+        self.side_keys(t).as_ref().map(side_ranks)
+    }
+
+    /// The first pass of [`Couples::link`], with [`VertexKeys::rank_and_count_avx512`]
+    /// when `avx512` (which the CPU must have).
+    fn rank_sides(&self, avx512: bool) -> RankedSides {
+        let n = self.mesh.triangle_count();
+        let part_len = triangle_part_len(n);
+        let parts = (0..n.div_ceil(part_len)).into_par_iter();
+        RankedSides::by_parts(n, self.blocks(), parts, |p, _, ranks, count| {
+            let done = if avx512 {
+                // SAFETY: `avx512` says the CPU has the features.
+                unsafe { self.rank_and_count_avx512(p * part_len, ranks, count) }
+            } else {
+                0
+            };
+            for (i, r) in ranks.iter_mut().enumerate().skip(done) {
+                let t = p * part_len + i;
+                if let Some(rank) = self.side_ranks(t) {
+                    *r = rank;
+                    for h in &self.half_edges(t, rank) {
+                        count[self.block(h)] += 1;
+                    }
+                }
+            }
+        })
+    }
+
+    /// [`VertexKeys::rank_sides`] of triangles `first..` (as many as `ranks`, their
+    /// bytes), for a prefix of them, 16 triangles at a time: their corners gathered, the checks of
+    /// [`VertexKeys::side_keys`] and the comparisons of [`side_ranks`] on their keys
+    /// (box area bits, then smaller vertex, then larger) done lane-wise, with the same
+    /// floating-point operations in the same order, so the bytes are the scalar
+    /// pass's. Only the block counts are added up one by one. On the dragon, one core:
+    /// 7 ms, where the scalar pass (branches, checks and 128-bit keys per triangle)
+    /// takes 16. Returns the prefix's length.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512 F and POPCNT ([`has_avx512`]).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,popcnt")]
+    unsafe fn rank_and_count_avx512(
+        &self,
+        first: usize,
+        ranks: &mut [u8],
+        count: &mut [u32],
+    ) -> usize {
+        use std::arch::x86_64::*;
+        let mesh = self.mesh;
+        if mesh.positions.len() > MAX_GATHER_VERTICES {
+            return 0;
+        }
+        let done = ranks.len() / 16 * 16;
+        for g in (0..done).step_by(16) {
+            let (v, corner, active) = load_triangles_avx512(mesh, first + g);
+            // Side k's key, as `side_keys`: box area bits, smaller and larger vertex.
+            let key = |k: usize| {
+                let bbsa = edge_bbsa_avx512(&corner[k], &corner[(k + 1) % 3]);
+                let (a, b) = (v[k], v[(k + 1) % 3]);
+                [
+                    _mm512_castps_si512(bbsa),
+                    _mm512_min_epu32(a, b),
+                    _mm512_max_epu32(a, b),
+                ]
+            };
+            let keys = [key(0), key(1), key(2)];
+            // Each half-edge's block: that of its smaller vertex.
+            let block = |k: usize| _mm512_srli_epi32::<BLOCK_SHIFT>(keys[k][1]);
+            let blocks = [block(0), block(1), block(2)];
+            rank_and_count_lanes(&keys, blocks, active, &mut ranks[g..g + 16], count);
+        }
+        done
+    }
 }
 
 impl EdgeKeys for VertexKeys<'_> {
     type HalfEdge = VertexHalfEdge;
 
     fn blocks(&self) -> usize {
-        self.mesh.positions.len().div_ceil(BLOCK_VERTICES)
+        self.mesh.positions.len().div_ceil(BLOCK_VERTICES).max(1)
     }
 
     fn runs(&self, b: usize, _: usize) -> usize {
         BLOCK_VERTICES.min(self.mesh.positions.len() - b * BLOCK_VERTICES)
-    }
-
-    #[inline]
-    fn side_ranks(&self, t: usize) -> Option<u8> {
-        self.side_keys(t).as_ref().map(side_ranks)
     }
 
     #[inline]
@@ -313,7 +387,10 @@ impl EdgeKeys for VertexKeys<'_> {
         for p in (0..len).step_by(16) {
             let ([_, other, link], lanes) = window[1];
             let (one, several, at) = window_matches_avx512(word, p, lanes);
-            let twin = |field: usize| lanes_at_avx512(window.map(|(h, _)| h[field]), at);
+            let twin = |field: usize| {
+                let [(before, _), (this, _), (after, _)] = &window;
+                lanes_at_avx512([before[field], this[field], after[field]], at)
+            };
             let differ = _mm512_xor_epi32(other, twin(1));
             let twins = _mm512_mask_testn_epi32_mask(one, differ, larger_mask);
             let opposite = _mm512_mask_test_epi32_mask(
@@ -326,47 +403,6 @@ impl EdgeKeys for VertexKeys<'_> {
             window = [window[1], window[2], load(p + 32)];
         }
         true
-    }
-
-    /// Sixteen triangles at a time: their corners gathered, the checks of
-    /// [`VertexKeys::side_keys`] and the comparisons of [`side_ranks`] on their keys
-    /// (box area bits, then smaller vertex, then larger) done lane-wise, with the same
-    /// floating-point operations in the same order, so the bytes are the scalar
-    /// pass's. Only the block counts are added up one by one. On the dragon, one core:
-    /// 7 ms, where the scalar pass (branches, checks and 128-bit keys per triangle)
-    /// takes 16.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f,popcnt")]
-    unsafe fn rank_and_count_avx512(
-        &self,
-        first: usize,
-        ranks: &mut [u8],
-        count: &mut [u32],
-    ) -> usize {
-        use std::arch::x86_64::*;
-        let mesh = self.mesh;
-        if mesh.positions.len() > MAX_GATHER_VERTICES {
-            return 0;
-        }
-        let done = ranks.len() / 16 * 16;
-        for g in (0..done).step_by(16) {
-            let (v, corner, active) = load_triangles_avx512(mesh, first + g);
-            // Side k's key, as `side_keys`: box area bits, smaller and larger vertex.
-            let key = |k: usize| {
-                let bbsa = edge_bbsa_avx512(&corner[k], &corner[(k + 1) % 3]);
-                let (a, b) = (v[k], v[(k + 1) % 3]);
-                [
-                    _mm512_castps_si512(bbsa),
-                    _mm512_min_epu32(a, b),
-                    _mm512_max_epu32(a, b),
-                ]
-            };
-            let keys = [key(0), key(1), key(2)];
-            // Each half-edge's block: that of its smaller vertex.
-            let blocks = keys.map(|k| _mm512_srli_epi32::<BLOCK_SHIFT>(k[1]));
-            rank_and_count_lanes(&keys, blocks, active, &mut ranks[g..g + 16], count);
-        }
-        done
     }
 
     /// Sixteen triangles at a time: their half-edges built lane-wise, one side at a
@@ -384,18 +420,6 @@ impl EdgeKeys for VertexKeys<'_> {
         destination: &SharedSlice<VertexHalfEdge>,
     ) -> usize {
         use std::arch::x86_64::*;
-        // Word w of a side's 16 records [smaller, other, link] is field w % 3 of lane
-        // w / 3. Vector r of words: smaller and other picked from two vectors (other's
-        // lanes numbered from 16), then link's lanes from the third.
-        let lanes = |of_word: &dyn Fn(usize) -> usize| {
-            let lanes: [i32; 16] = std::array::from_fn(|i| of_word(i) as i32);
-            _mm512_loadu_si512(lanes.as_ptr() as *const __m512i)
-        };
-        let two_fields = [0, 16, 32].map(|from| lanes(&|i| (from + i) / 3 + 16 * ((from + i) % 3)));
-        let record_lane = [0, 16, 32].map(|from| lanes(&|i| (from + i) / 3));
-        let is_link = [0, 16, 32].map(|from| {
-            (0..16).fold(0, |m, i| m | (((from + i) % 3 == 2) as u16) << i) as __mmask16
-        });
         let destination = destination.0 as *mut i32;
         let done = ranks.len() / 16 * 16;
         for g in (0..done).step_by(16) {
@@ -415,14 +439,7 @@ impl EdgeKeys for VertexKeys<'_> {
                 );
                 let side = _mm512_set1_epi32(k as i32);
                 let link = _mm512_or_epi32(triangle, rank_of_side_lanes(rank_bytes, side));
-                records[k] = std::array::from_fn(|r| {
-                    _mm512_mask_permutexvar_epi32(
-                        _mm512_permutex2var_epi32(smaller, two_fields[r], other),
-                        is_link[r],
-                        record_lane[r],
-                        link,
-                    )
-                });
+                records[k] = records_of_lanes_avx512([smaller, other, link]);
                 blocks[k] = _mm512_srli_epi32::<BLOCK_SHIFT>(smaller);
             }
             for_each_block_avx512(&blocks, active, |b, in_b| {

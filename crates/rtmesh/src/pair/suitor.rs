@@ -16,10 +16,10 @@
 //! whose couples are listed apart with their keys ([`ExtraCouple`]). Twins are found
 //! block by block in cache ([`Couples::link`]); the pairing method says how its
 //! half-edges are keyed and blocked ([`EdgeKeys`]: by smaller vertex for indexed
-//! input, by cell of space and key hash for position keys). Its hot loops, ranking the
-//! triangles' sides and searching the runs, take a pairing method's own AVX-512
-//! kernels where it has them and the CPU too ([`EdgeKeys::rank_and_count_avx512`],
-//! [`EdgeKeys::couple_block_avx512`]); the scalar
+//! input, by cell of space and key hash for position keys), and ranks each triangle's
+//! sides first ([`RankedSides`]). The hot loops, ranking the triangles' sides and
+//! searching the runs, take a pairing method's own AVX-512 kernels where it has them
+//! and the CPU too (its ranking's, [`EdgeKeys::couple_block_avx512`]); the scalar
 //! loops are the reference the tests hold them to. Twins are written as links ([`Links`]), listed in the order of each
 //! triangle's keys, which carry the couple's rank at the other end. When no edge has
 //! more than two half-edges, a triangle's whole matching state is then one byte, the
@@ -94,13 +94,10 @@ pub(super) trait HalfEdge: Copy + Default + Send + Sync {
 pub(super) trait EdgeKeys: Sync {
     /// The half-edges.
     type HalfEdge: HalfEdge;
-    /// How many blocks.
+    /// How many blocks (at least one).
     fn blocks(&self) -> usize;
     /// How many runs block `b`, of `len` half-edges, has.
     fn runs(&self, b: usize, len: usize) -> usize;
-    /// The ranks of triangle `t`'s sides' keys (as in [`Couples::side_ranks`]), or
-    /// `None` for a triangle that takes no part.
-    fn side_ranks(&self, t: usize) -> Option<u8>;
     /// The half-edges of triangle `t`, one that takes part, whose sides' ranks are
     /// `ranks`.
     fn half_edges(&self, t: usize, ranks: u8) -> [Self::HalfEdge; 3];
@@ -151,22 +148,6 @@ pub(super) trait EdgeKeys: Sync {
     ) -> bool {
         false
     }
-    /// The first pass of [`Couples::link`] in AVX-512, for keys that have such a
-    /// kernel, over a prefix of the triangles from `first`: their bytes of `ranks` as
-    /// the scalar pass writes them (`ranks` starts as [`EXCLUDED`]), and their
-    /// half-edges counted into `count` per block. Returns the prefix's length (0 where
-    /// there is no kernel); the scalar pass does the rest.
-    ///
-    /// # Safety
-    /// The CPU has AVX-512 F and POPCNT ([`has_avx512`]).
-    unsafe fn rank_and_count_avx512(
-        &self,
-        _first: usize,
-        _ranks: &mut [u8],
-        _count: &mut [u32],
-    ) -> usize {
-        0
-    }
     /// The second pass of [`Couples::link`] in AVX-512, for keys that have such a
     /// kernel, over a prefix of the triangles from `first`, whose bytes of `ranks` the
     /// first pass wrote: each one's half-edges' entries written at its block's
@@ -176,8 +157,8 @@ pub(super) trait EdgeKeys: Sync {
     /// is no kernel); the scalar pass does the rest.
     ///
     /// # Safety
-    /// As [`EdgeKeys::rank_and_count_avx512`], and the CPU has BMI2; the cursors give
-    /// every half-edge its own slot of `destination`.
+    /// The CPU has AVX-512 F, POPCNT and BMI2 ([`has_avx512`]); the cursors give every
+    /// half-edge its own slot of `destination`.
     unsafe fn write_out_avx512(
         &self,
         _first: usize,
@@ -234,46 +215,24 @@ impl Couples {
     /// [`Couples::extra`]: the `i`-th with key `extra_key(h, n - 1 - i)` for `n`
     /// half-edges, so that earlier couples rank higher.
     ///
-    /// Three passes. The first ranks every triangle's sides and counts its half-edges
-    /// per block; the second writes them out by block ([`EdgeKeys::Entry`]: the
+    /// Three passes. The first, `ranked`, ranked every triangle's sides and counted
+    /// its half-edges per block; the second writes them out by block ([`EdgeKeys::Entry`]: the
     /// half-edge or its id, as this table is the one that leaves the cache; a
     /// triangle's three take one read of each cursor, not three in a chain). The third
     /// takes a block at a time, in cache: a counting sort on the run gathers each run's
     /// half-edges (in the order written, which keeps each triangle's in side order),
     /// among which every edge's are found by comparing edges. Parts of the triangles,
     /// then blocks, on the pool's threads. When `avx512` (which the CPU must have:
-    /// [`has_avx512`]), the passes take the kernels
-    /// [`EdgeKeys::rank_and_count_avx512`], [`EdgeKeys::write_out_avx512`] and
+    /// [`has_avx512`]), the passes take the kernels [`EdgeKeys::write_out_avx512`] and
     /// [`EdgeKeys::couple_block_avx512`], where the keys have them.
-    pub(super) fn link<K: EdgeKeys>(triangle_count: usize, keys: &K, avx512: bool) -> Self {
-        let n = triangle_count;
-        let blocks = keys.blocks().max(1);
+    pub(super) fn link<K: EdgeKeys>(keys: &K, ranked: RankedSides, avx512: bool) -> Self {
+        let RankedSides {
+            side_ranks,
+            counts: mut cursors,
+        } = ranked;
+        let n = side_ranks.len() - RANKS_PADDING;
+        let blocks = keys.blocks();
         let part_len = triangle_part_len(n);
-        // Pass 1: side ranks, and half-edges per block per part.
-        let mut side_ranks = vec![EXCLUDED; n + RANKS_PADDING];
-        let mut cursors: Vec<Vec<u32>> = side_ranks[..n]
-            .par_chunks_mut(part_len)
-            .enumerate()
-            .map(|(p, ranks)| {
-                let mut count = vec![0u32; blocks];
-                let done = if avx512 {
-                    // SAFETY: `avx512` says the CPU has the features.
-                    unsafe { keys.rank_and_count_avx512(p * part_len, ranks, &mut count) }
-                } else {
-                    0
-                };
-                for (i, r) in ranks.iter_mut().enumerate().skip(done) {
-                    let t = p * part_len + i;
-                    if let Some(rank) = keys.side_ranks(t) {
-                        *r = rank;
-                        for h in &keys.half_edges(t, rank) {
-                            count[keys.block(h)] += 1;
-                        }
-                    }
-                }
-                count
-            })
-            .collect();
         // Parts in order within a block.
         let block_start = part_cursors(&mut cursors, blocks);
         // Pass 2: write the half-edges out by block.
@@ -367,6 +326,43 @@ impl Couples {
             extra,
             side_ranks,
         }
+    }
+}
+
+/// The first pass of [`Couples::link`], which each pairing method does its own way:
+/// every triangle's side ranks, and its half-edges counted per block, by parts of the
+/// triangles ([`triangle_part_len`]).
+#[derive(Debug, PartialEq)]
+pub(super) struct RankedSides {
+    /// [`Couples::side_ranks`], padding included.
+    pub(super) side_ranks: Vec<u8>,
+    /// Per part, its half-edges per block.
+    pub(super) counts: Vec<Vec<u32>>,
+}
+
+impl RankedSides {
+    /// The sides of `n` triangles ranked and counted into `blocks` blocks by parts on
+    /// the pool's threads: `rank_part(p, item, ranks, count)` does part `p`, with its
+    /// item of `items` (one per part), its ranks (which start [`EXCLUDED`]) and its
+    /// counts (which start at 0).
+    pub(super) fn by_parts<T: Send>(
+        n: usize,
+        blocks: usize,
+        items: impl IndexedParallelIterator<Item = T>,
+        rank_part: impl Fn(usize, T, &mut [u8], &mut [u32]) + Sync,
+    ) -> Self {
+        let mut side_ranks = vec![EXCLUDED; n + RANKS_PADDING];
+        let counts = side_ranks[..n]
+            .par_chunks_mut(triangle_part_len(n))
+            .zip(items)
+            .enumerate()
+            .map(|(p, (ranks, item))| {
+                let mut count = vec![0u32; blocks];
+                rank_part(p, item, ranks, &mut count);
+                count
+            })
+            .collect();
+        Self { side_ranks, counts }
     }
 }
 
@@ -506,27 +502,73 @@ pub(super) unsafe fn load_records<const W: usize>(
     let words = (W * count) as u32;
     let word_mask = |from: u32| ((1u64 << (words.clamp(from, from + 16) - from)) - 1) as __mmask16;
     // Vector v holds words 16v to 16v + 15; a fourth of 3-word records is all zeros.
-    let v = [0, 1, 2, 3].map(|v| {
+    // (Closures in the AVX-512 kernels are called, not passed to `array::map` or
+    // `from_fn`, whose bodies lack the target features: there some stayed calls,
+    // with their vectors passed through memory.)
+    let vector = |v: usize| {
         let from = 16 * v as u32;
         if v < W {
             _mm512_maskz_loadu_epi32(word_mask(from), base.wrapping_add(from as usize))
         } else {
             _mm512_setzero_si512()
         }
-    });
+    };
+    let v = [vector(0), vector(1), vector(2), vector(3)];
     let lane = _mm512_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    std::array::from_fn(|w| {
+    let mut words = [_mm512_setzero_si512(); W];
+    for (w, word) in words.iter_mut().enumerate() {
         let index = _mm512_add_epi32(
             _mm512_mullo_epi32(lane, _mm512_set1_epi32(W as i32)),
             _mm512_set1_epi32(w as i32),
         );
-        _mm512_mask_blend_epi32(
+        *word = _mm512_mask_blend_epi32(
             _mm512_cmpge_epi32_mask(index, _mm512_set1_epi32(32)),
             _mm512_permutex2var_epi32(v[0], index, v[1]),
             _mm512_permutex2var_epi32(v[2], index, v[3]),
-        )
-    })
+        );
+    }
+    words
 }
+
+/// [`load_records`] the other way for 16 three-word records: word `w` of the record
+/// in lane `i` of `fields[w]` made word `3i + w` of the three vectors (to store, or
+/// to append lane by lane). Two permutes a vector.
+///
+/// # Safety
+/// The CPU has AVX-512 F.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+#[inline]
+pub(super) unsafe fn records_of_lanes_avx512(
+    [first, second, third]: [std::arch::x86_64::__m512i; 3],
+) -> [std::arch::x86_64::__m512i; 3] {
+    use std::arch::x86_64::*;
+    let lanes = |v: usize, of_third: bool| {
+        let indices = &RECORD_LANES[v][of_third as usize];
+        _mm512_loadu_si512(indices.as_ptr() as *const __m512i)
+    };
+    let vector = |v: usize| {
+        let of_first_two = _mm512_permutex2var_epi32(first, lanes(v, false), second);
+        _mm512_permutex2var_epi32(of_first_two, lanes(v, true), third)
+    };
+    [vector(0), vector(1), vector(2)]
+}
+
+/// The permutes of [`records_of_lanes_avx512`]: for vector `v`, whose word `i` is
+/// word `m % 3` of lane `m / 3` (`m = 16v + i`), the lanes of the first two fields
+/// (the second's numbered from 16), then those of the first permute and the third
+/// field (from 16).
+const RECORD_LANES: [[[i32; 16]; 2]; 3] = {
+    let mut lanes = [[[0; 16]; 2]; 3];
+    let mut m = 0;
+    while m < 48 {
+        let (v, i, lane, word) = (m / 16, m % 16, (m / 3) as i32, m % 3);
+        lanes[v][0][i] = if word == 1 { 16 + lane } else { lane };
+        lanes[v][1][i] = if word == 2 { 16 + lane } else { i as i32 };
+        m += 1;
+    }
+    lanes
+};
 
 /// The most vertices [`load_triangles_avx512`] takes: gathers take i32 offsets, and
 /// `3v + axis` must fit.
@@ -594,10 +636,11 @@ pub(super) unsafe fn edge_bbsa_avx512(
 ) -> std::arch::x86_64::__m512 {
     use std::arch::x86_64::*;
     let magnitude = _mm512_set1_epi32(0x7fff_ffff);
-    let d = [0, 1, 2].map(|axis| {
+    let along = |axis: usize| {
         let difference = _mm512_castps_si512(_mm512_sub_ps(q[axis], p[axis]));
         _mm512_castsi512_ps(_mm512_and_si512(difference, magnitude))
-    });
+    };
+    let d = [along(0), along(1), along(2)];
     _mm512_add_ps(
         _mm512_add_ps(_mm512_mul_ps(d[0], d[1]), _mm512_mul_ps(d[1], d[2])),
         _mm512_mul_ps(d[2], d[0]),
@@ -714,17 +757,17 @@ pub(super) unsafe fn for_each_block_avx512(
     mut f: impl FnMut(usize, [std::arch::x86_64::__mmask16; 3]),
 ) {
     use std::arch::x86_64::*;
-    let block = blocks.map(|b| {
-        let mut lanes = [0u32; 16];
+    let mut block = [[0u32; 16]; 3];
+    for (lanes, &b) in block.iter_mut().zip(blocks) {
         _mm512_storeu_si512(lanes.as_mut_ptr() as *mut __m512i, b);
-        lanes
-    });
+    }
     let mut left = [active; 3];
     while let Some(k) = (0..3).find(|&k| left[k] != 0) {
         let b = block[k][left[k].trailing_zeros() as usize];
-        let in_b = std::array::from_fn(|j| {
+        let in_side = |j: usize| {
             _mm512_mask_cmpeq_epi32_mask(left[j], blocks[j], _mm512_set1_epi32(b as i32))
-        });
+        };
+        let in_b = [in_side(0), in_side(1), in_side(2)];
         for (left, in_b) in left.iter_mut().zip(in_b) {
             *left &= !in_b;
         }

@@ -237,8 +237,10 @@ proptest! {
         if !kernel_choices().contains(&true) {
             return Ok(());
         }
-        let scalar = compressed::PositionKeys::new(&mesh, false).keys;
-        prop_assert_eq!(compressed::PositionKeys::new(&mesh, true).keys, scalar);
+        let (scalar, scalar_ranked) = compressed::PositionKeys::new(&mesh, false);
+        let (keys, ranked) = compressed::PositionKeys::new(&mesh, true);
+        prop_assert_eq!(keys.keys, scalar.keys);
+        prop_assert_eq!(ranked, scalar_ranked);
     }
 
     #[test]
