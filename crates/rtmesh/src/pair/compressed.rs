@@ -191,6 +191,11 @@ impl Quantiser {
         }
     }
 
+    /// How many cells the grid has.
+    fn cells(&self) -> usize {
+        1 << (3 * self.cell_bits)
+    }
+
     /// The cell of the midpoint of the edge with key `key`.
     #[inline]
     fn cell(&self, key: EdgeKey) -> usize {
@@ -380,8 +385,7 @@ impl<'m> PositionKeys<'m> {
         // Written once, in place of a fill and then the keys.
         let mut keys: Vec<EdgeKey> = vec_on_huge_pages(len);
         let parts = keys.spare_capacity_mut()[..len].par_chunks_mut(3 * part_len);
-        let blocks = 1 << (3 * quantiser.cell_bits);
-        let ranked = RankedSides::by_parts(n, blocks, parts, |p, part, ranks, count| {
+        let ranked = RankedSides::by_parts(n, quantiser.cells(), parts, |p, part, ranks, count| {
             let first = p * part_len;
             let done = if avx512 {
                 // SAFETY: `avx512` says the CPU has the features; the part starts a
@@ -457,7 +461,7 @@ impl EdgeKeys for PositionKeys<'_> {
     type HalfEdge = PositionHalfEdge;
 
     fn blocks(&self) -> usize {
-        1 << (3 * self.quantiser.cell_bits)
+        self.quantiser.cells()
     }
 
     /// A power of two, a run for every 2–4 half-edges: in the scalar search's 8-wide
