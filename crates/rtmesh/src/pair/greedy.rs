@@ -40,7 +40,6 @@ use super::suitor::{
 };
 use super::{edge_bbsa, ActiveTriangles, Pairing, UNPAIRED};
 use crate::mesh::{has_edges, triangle_part_len, SharedSlice, TriMesh};
-use rayon::prelude::*;
 
 /// One record of the paper's half-edge table.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -210,8 +209,8 @@ impl VertexKeys<'_> {
     fn rank_sides(&self, avx512: bool) -> RankedSides {
         let n = self.mesh.triangle_count();
         let part_len = triangle_part_len(n);
-        let parts = (0..n.div_ceil(part_len)).into_par_iter();
-        RankedSides::by_parts(n, self.blocks(), parts, |p, _, ranks, count| {
+        let parts = rayon::iter::repeat_n((), n.div_ceil(part_len));
+        RankedSides::by_parts(n, self.blocks(), parts, |p, (), ranks, count| {
             let done = if avx512 {
                 // SAFETY: `avx512` says the CPU has the features.
                 unsafe { self.rank_and_count_avx512(p * part_len, ranks, count) }
@@ -230,14 +229,14 @@ impl VertexKeys<'_> {
         })
     }
 
-    /// [`VertexKeys::rank_sides`] of triangles `first..` (as many as `ranks`, their
-    /// bytes), for a prefix of them, 16 triangles at a time: their corners gathered, the checks of
-    /// [`VertexKeys::side_keys`] and the comparisons of [`side_ranks`] on their keys
-    /// (box area bits, then smaller vertex, then larger) done lane-wise, with the same
-    /// floating-point operations in the same order, so the bytes are the scalar
-    /// pass's. Only the block counts are added up one by one. On the dragon, one core:
-    /// 7 ms, where the scalar pass (branches, checks and 128-bit keys per triangle)
-    /// takes 16. Returns the prefix's length.
+    /// [`VertexKeys::rank_sides`] of triangles `first..` (as many as `ranks`, their bytes),
+    /// for a prefix of them, 16 triangles at a time: their corners gathered, the checks of
+    /// [`VertexKeys::side_keys`] and the comparisons of [`side_ranks`] on their keys (box
+    /// area bits, then smaller vertex, then larger) done lane-wise, with the same
+    /// floating-point operations in the same order, so the bytes are the scalar pass's.
+    /// Only the block counts are added up one by one. On the dragon, one core: 7 ms, where
+    /// the scalar pass (branches, checks and 128-bit keys per triangle) takes 16. Returns
+    /// the prefix's length.
     ///
     /// # Safety
     /// The CPU has AVX-512 F and POPCNT ([`has_avx512`]).

@@ -215,15 +215,15 @@ impl Couples {
     /// [`Couples::extra`]: the `i`-th with key `extra_key(h, n - 1 - i)` for `n`
     /// half-edges, so that earlier couples rank higher.
     ///
-    /// Three passes. The first, `ranked`, ranked every triangle's sides and counted
-    /// its half-edges per block; the second writes them out by block ([`EdgeKeys::Entry`]: the
-    /// half-edge or its id, as this table is the one that leaves the cache; a
-    /// triangle's three take one read of each cursor, not three in a chain). The third
-    /// takes a block at a time, in cache: a counting sort on the run gathers each run's
-    /// half-edges (in the order written, which keeps each triangle's in side order),
-    /// among which every edge's are found by comparing edges. Parts of the triangles,
-    /// then blocks, on the pool's threads. When `avx512` (which the CPU must have:
-    /// [`has_avx512`]), the passes take the kernels [`EdgeKeys::write_out_avx512`] and
+    /// Three passes. The first, `ranked`, ranked every triangle's sides and counted its
+    /// half-edges per block; the second writes them out by block ([`EdgeKeys::Entry`]: the
+    /// half-edge or its id, as this table is the one that leaves the cache; a triangle's
+    /// three take one read of each cursor, not three in a chain). The third takes a block
+    /// at a time, in cache: a counting sort on the run gathers each run's half-edges (in
+    /// the order written, which keeps each triangle's in side order), among which every
+    /// edge's are found by comparing edges. Parts of the triangles, then blocks, on the
+    /// pool's threads. When `avx512` (which the CPU must have: [`has_avx512`]), the passes
+    /// take the kernels [`EdgeKeys::write_out_avx512`] and
     /// [`EdgeKeys::couple_block_avx512`], where the keys have them.
     pub(super) fn link<K: EdgeKeys>(keys: &K, ranked: RankedSides, avx512: bool) -> Self {
         let RankedSides {
