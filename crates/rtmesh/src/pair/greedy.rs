@@ -221,8 +221,8 @@ impl VertexKeys<'_> {
                 let t = p * part_len + i;
                 if let Some(rank) = self.side_ranks(t) {
                     *r = rank;
-                    for h in &self.half_edges(t, rank) {
-                        count[self.block(h)] += 1;
+                    for (_, b) in self.half_edges(t, rank) {
+                        count[b] += 1;
                     }
                 }
             }
@@ -287,45 +287,29 @@ impl EdgeKeys for VertexKeys<'_> {
         BLOCK_VERTICES.min(self.mesh.positions.len() - b * BLOCK_VERTICES)
     }
 
+    /// In the blocks of their smaller vertices.
     #[inline]
-    fn half_edges(&self, t: usize, ranks: u8) -> [VertexHalfEdge; 3] {
+    fn half_edges(&self, t: usize, ranks: u8) -> [(VertexHalfEdge, usize); 3] {
         let tri = self.mesh.triangles[t];
         std::array::from_fn(|k| {
             let (a, b) = (tri[k], tri[(k + 1) % 3]);
-            VertexHalfEdge {
+            let h = VertexHalfEdge {
                 smaller: a.min(b),
                 other: a.max(b) | if a < b { VertexHalfEdge::FORWARD } else { 0 },
                 link: (t as u32) << 2 | rank_of_side(ranks, k as u32),
-            }
+            };
+            (h, h.smaller as usize / BLOCK_VERTICES)
         })
-    }
-
-    /// The whole half-edge: rebuilt from its triangle in the blocks' pass instead, it
-    /// cost as much there as its 8 bytes more cost the write-out (side by side on the
-    /// dragon, one core: write-out 8 → 4 ms, blocks' pass 23 → 27).
-    type Entry = VertexHalfEdge;
-
-    #[inline]
-    fn entry(h: &VertexHalfEdge) -> VertexHalfEdge {
-        *h
-    }
-
-    fn block_half_edges<'a>(
-        &self,
-        entries: &'a [VertexHalfEdge],
-        _: &'a mut Vec<VertexHalfEdge>,
-    ) -> &'a [VertexHalfEdge] {
-        entries
-    }
-
-    #[inline]
-    fn block(&self, h: &VertexHalfEdge) -> usize {
-        h.smaller as usize / BLOCK_VERTICES
     }
 
     #[inline]
     fn run(&self, h: &VertexHalfEdge, _: usize) -> usize {
         h.smaller as usize % BLOCK_VERTICES
+    }
+
+    /// The larger vertex: a run's half-edges share the smaller.
+    fn exact_edge(&self, h: &VertexHalfEdge) -> u128 {
+        h.edge() as u128
     }
 
     fn extra_key(&self, h: &VertexHalfEdge, rank: u32) -> u128 {

@@ -67,7 +67,10 @@ pub(super) struct Couples {
 
 /// A half-edge as [`Couples::link`] sorts and compares it.
 pub(super) trait HalfEdge: Copy + Default + Send + Sync {
-    /// What tells the edges of one run apart.
+    /// What tells the edges of one run apart: the edge, or a signature of it that
+    /// equal edges share, where two half-edges of one signature that
+    /// [`EdgeKeys::may_couple`] are sure to be on one edge ([`EdgeKeys::exact_edge`]
+    /// tells the rest apart).
     type Edge: Copy + Ord;
     /// An edge that no half-edge has (the spare lanes of a window).
     const NO_EDGE: Self::Edge;
@@ -99,28 +102,17 @@ pub(super) trait EdgeKeys: Sync {
     /// How many runs block `b`, of `len` half-edges, has.
     fn runs(&self, b: usize, len: usize) -> usize;
     /// The half-edges of triangle `t`, one that takes part, whose sides' ranks are
-    /// `ranks`.
-    fn half_edges(&self, t: usize, ranks: u8) -> [Self::HalfEdge; 3];
-    /// What the write-out by block keeps of a half-edge: all of it, or less, from
-    /// which [`EdgeKeys::block_half_edges`] rebuilds it in cache.
-    type Entry: Copy + Send + Sync;
-    /// Half-edge `h`'s entry.
-    fn entry(h: &Self::HalfEdge) -> Self::Entry;
-    /// The half-edges of a block whose entries are `entries` (rebuilt into `rebuilt`,
-    /// where an entry is not the half-edge).
-    fn block_half_edges<'a>(
-        &self,
-        entries: &'a [Self::Entry],
-        rebuilt: &'a mut Vec<Self::HalfEdge>,
-    ) -> &'a [Self::HalfEdge];
-    /// The block of half-edge `h`.
-    fn block(&self, h: &Self::HalfEdge) -> usize;
+    /// `ranks`, each with its block.
+    fn half_edges(&self, t: usize, ranks: u8) -> [(Self::HalfEdge, usize); 3];
     /// The run of half-edge `h` in its block, which has `runs` runs.
     fn run(&self, h: &Self::HalfEdge, runs: usize) -> usize;
     /// The key of the `rank`-th couple from the end on an edge of three or more
     /// half-edges, `h` among them.
     fn extra_key(&self, h: &Self::HalfEdge, rank: u32) -> u128;
-    /// Whether `a` and `b`, two half-edges on one edge, may be a couple.
+    /// Half-edge `h`'s edge exactly, by which [`couple_run`] groups a run: its
+    /// [`HalfEdge::edge`], or where that is a signature, the key it signs.
+    fn exact_edge(&self, h: &Self::HalfEdge) -> u128;
+    /// Whether `a` and `b`, two half-edges of one [`HalfEdge::edge`], may be a couple.
     fn may_couple(&self, a: &Self::HalfEdge, b: &Self::HalfEdge) -> bool;
     /// Prefetch what [`EdgeKeys::may_couple`] and linking will read of `h`, where that
     /// is not in the half-edge (its triangle's byte of `ranks`, [`Links::ranks`], is
@@ -150,7 +142,7 @@ pub(super) trait EdgeKeys: Sync {
     }
     /// The second pass of [`Couples::link`] in AVX-512, for keys that have such a
     /// kernel, over a prefix of the triangles from `first`, whose bytes of `ranks` the
-    /// first pass wrote: each one's half-edges' entries written at its block's
+    /// first pass wrote: each one's half-edges written at its block's
     /// `cursor`, into `destination`, and the cursor moved past them. A triangle's
     /// half-edges stay in side order, and groups of triangles in order, but a group's
     /// sides 0 may come before its sides 1. Returns the prefix's length (0 where there
@@ -164,7 +156,7 @@ pub(super) trait EdgeKeys: Sync {
         _first: usize,
         _ranks: &[u8],
         _cursor: &mut [u32],
-        _destination: &SharedSlice<Self::Entry>,
+        _destination: &SharedSlice<Self::HalfEdge>,
     ) -> usize {
         0
     }
@@ -216,9 +208,8 @@ impl Couples {
     /// half-edges, so that earlier couples rank higher.
     ///
     /// Three passes. The first, `ranked`, ranked every triangle's sides and counted its
-    /// half-edges per block; the second writes them out by block ([`EdgeKeys::Entry`]: the
-    /// half-edge or its id, as this table is the one that leaves the cache; a triangle's
-    /// three take one read of each cursor, not three in a chain). The third takes a block
+    /// half-edges per block; the second writes them out by block (a triangle's three take
+    /// one read of each cursor, not three in a chain). The third takes a block
     /// at a time, in cache: a counting sort on the run gathers each run's half-edges (in
     /// the order written, which keeps each triangle's in side order), among which every
     /// edge's are found by comparing edges. Parts of the triangles, then blocks, on the
@@ -237,8 +228,8 @@ impl Couples {
         let block_start = part_cursors(&mut cursors, blocks);
         // Pass 2: write the half-edges out by block.
         let half_edge_count = block_start[blocks] as usize;
-        let mut entries: Vec<K::Entry> = vec_on_huge_pages(half_edge_count);
-        let destination = SharedSlice(entries.as_mut_ptr());
+        let mut by_block: Vec<K::HalfEdge> = vec_on_huge_pages(half_edge_count);
+        let destination = SharedSlice(by_block.as_mut_ptr());
         let destination = &destination;
         side_ranks[..n]
             .par_chunks(part_len)
@@ -256,8 +247,8 @@ impl Couples {
                     if r == EXCLUDED {
                         continue;
                     }
-                    let h = keys.half_edges(p * part_len + i, r);
-                    let b = h.each_ref().map(|h| keys.block(h));
+                    let [(h0, b0), (h1, b1), (h2, b2)] = keys.half_edges(p * part_len + i, r);
+                    let (h, b) = ([h0, h1, h2], [b0, b1, b2]);
                     let c = [
                         cursor[b[0]],
                         cursor[b[1]] + (b[1] == b[0]) as u32,
@@ -266,13 +257,13 @@ impl Couples {
                     for k in 0..3 {
                         // SAFETY: the counts give every half-edge its own slot below
                         // `half_edge_count`.
-                        unsafe { destination.0.add(c[k] as usize).write(K::entry(&h[k])) };
+                        unsafe { destination.0.add(c[k] as usize).write(h[k]) };
                         cursor[b[k]] = c[k] + 1;
                     }
                 }
             });
         // SAFETY: the cursors covered every slot exactly once.
-        unsafe { entries.set_len(half_edge_count) };
+        unsafe { by_block.set_len(half_edge_count) };
         // Pass 3: the blocks.
         let mut across = filled_on_huge_pages(3 * n, NO_LINK);
         let links = Links {
@@ -287,19 +278,17 @@ impl Couples {
                     extra,
                     sorted,
                     start,
-                    rebuilt,
                     words,
                     declined,
                 } = &mut scratch;
-                let block = &entries[block_start[b] as usize..block_start[b + 1] as usize];
-                let block = keys.block_half_edges(block, rebuilt);
+                let block = &by_block[block_start[b] as usize..block_start[b + 1] as usize];
                 let runs = keys.runs(b, block.len());
                 let next = block_start[b + 1] as usize..block_start[(b + 2).min(blocks)] as usize;
                 sort_by_run(
                     keys,
                     block,
                     runs,
-                    &entries[next],
+                    &by_block[next],
                     links.ranks,
                     start,
                     sorted,
@@ -371,14 +360,14 @@ impl RankedSides {
 /// once, each with its own cursors, so that the chains of increments of one cursor
 /// (neighbouring half-edges often share a run) interleave: on the dragon, one core,
 /// the blocks' pass took 15.6 → 14.0 ms with two. While it sorts, the next block's
-/// entries, `next`, are fetched from the shared cache, a line in step with each line
+/// half-edges, `next`, are fetched from the shared cache, a line in step with each line
 /// read (20.6 → 19.0 ms).
 #[inline(always)]
 fn sort_by_run<K: EdgeKeys>(
     keys: &K,
     block: &[K::HalfEdge],
     runs: usize,
-    next: &[K::Entry],
+    next: &[K::HalfEdge],
     ranks: &[u8],
     start: &mut Vec<u32>,
     sorted: &mut Vec<K::HalfEdge>,
@@ -418,7 +407,7 @@ fn sort_by_run<K: EdgeKeys>(
         sorted[*c as usize] = *h;
         *c += 1;
     };
-    let line = 64 / std::mem::size_of::<K::Entry>().max(1);
+    let line = 64 / std::mem::size_of::<K::HalfEdge>().max(1);
     for i in 0..part {
         if i % line == 0 {
             for e in (0..PARTS).filter_map(|p| next.get(p * part + i)) {
@@ -448,8 +437,6 @@ struct BlockScratch<K: EdgeKeys> {
     sorted: Vec<K::HalfEdge>,
     /// The runs' starts, then ends.
     start: Vec<u32>,
-    /// The block's half-edges rebuilt from its entries.
-    rebuilt: Vec<K::HalfEdge>,
     /// Scratch space of [`EdgeKeys::couple_block_avx512`].
     words: Vec<u32>,
     /// The runs that [`EdgeKeys::couple_block_avx512`] declined.
@@ -462,7 +449,6 @@ impl<K: EdgeKeys> Default for BlockScratch<K> {
             extra: Vec::new(),
             sorted: Vec::new(),
             start: Vec::new(),
-            rebuilt: Vec::new(),
             words: Vec::new(),
             declined: Vec::new(),
         }
@@ -484,7 +470,7 @@ pub(crate) fn has_avx512() -> bool {
     }
 }
 
-/// The words of each of `count` (at most 16) records of `W` (3 or 4) 32-bit words at
+/// The words of each of `count` (at most 16) records of `W` (2 to 4) 32-bit words at
 /// `base`: word `w` of record `i` in lane `i` of vector `w` (0 in lanes from `count`
 /// on). Up to `W` masked loads, so nothing past the records is read.
 ///
@@ -498,7 +484,7 @@ pub(super) unsafe fn load_records<const W: usize>(
     count: usize,
 ) -> [std::arch::x86_64::__m512i; W] {
     use std::arch::x86_64::*;
-    debug_assert!(count <= 16 && (W == 3 || W == 4));
+    debug_assert!(count <= 16 && (2..=4).contains(&W));
     let words = (W * count) as u32;
     let word_mask = |from: u32| ((1u64 << (words.clamp(from, from + 16) - from)) - 1) as __mmask16;
     // Vector v holds words 16v to 16v + 15; a fourth of 3-word records is all zeros.
@@ -994,7 +980,7 @@ pub(super) unsafe fn decline_lanes_avx512(
 
 /// Couple the runs of a block sorted by run, run `r` ending at `ends[r]`
 /// ([`couple_pairs`], or [`couple_run`] where that declines).
-fn couple_runs<K: EdgeKeys>(
+pub(super) fn couple_runs<K: EdgeKeys>(
     sorted: &[K::HalfEdge],
     ends: &[u32],
     keys: &K,
@@ -1059,8 +1045,9 @@ fn couple_run<K: EdgeKeys>(
     extra: &mut Vec<ExtraCouple>,
 ) {
     let mut by_edge: Vec<usize> = (0..run.len()).collect();
-    by_edge.sort_by_key(|&i| (run[i].edge(), run[i].triangle()));
-    for on_edge in by_edge.chunk_by(|&a, &b| run[a].edge() == run[b].edge()) {
+    let edge: Vec<u128> = run.iter().map(|h| keys.exact_edge(h)).collect();
+    by_edge.sort_by_key(|&i| (edge[i], run[i].triangle()));
+    for on_edge in by_edge.chunk_by(|&a, &b| edge[a] == edge[b]) {
         match *on_edge {
             [_] => {}
             [i, j] => {
@@ -1163,7 +1150,7 @@ pub(super) unsafe fn write_links_avx512(
 
 /// A couple on an edge of three or more half-edges, seen from `triangle`.
 #[derive(Clone, Copy, Debug)]
-struct ExtraCouple {
+pub(super) struct ExtraCouple {
     /// The proposing triangle.
     triangle: u32,
     /// The triangle across the edge.
