@@ -208,9 +208,9 @@ impl Couples {
     /// half-edges, so that earlier couples rank higher.
     ///
     /// Three passes. The first, `ranked`, ranked every triangle's sides and counted its
-    /// half-edges per block; the second writes them out by block (a triangle's three take
-    /// one read of each cursor, not three in a chain). The third takes a block
-    /// at a time, in cache: a counting sort on the run gathers each run's half-edges (in
+    /// half-edges per block; the second writes them out by block (a triangle's three
+    /// take one read of each cursor, not three in a chain). The third takes a block at
+    /// a time, in cache: a counting sort on the run gathers each run's half-edges (in
     /// the order written, which keeps each triangle's in side order), among which every
     /// edge's are found by comparing edges. Parts of the triangles, then blocks, on the
     /// pool's threads. When `avx512` (which the CPU must have: [`has_avx512`]), the passes
@@ -360,8 +360,8 @@ impl RankedSides {
 /// once, each with its own cursors, so that the chains of increments of one cursor
 /// (neighbouring half-edges often share a run) interleave: on the dragon, one core,
 /// the blocks' pass took 15.6 → 14.0 ms with two. While it sorts, the next block's
-/// half-edges, `next`, are fetched from the shared cache, a line in step with each line
-/// read (20.6 → 19.0 ms).
+/// half-edges, `next`, are fetched from the shared cache, a line in step with each
+/// line read (20.6 → 19.0 ms).
 #[inline(always)]
 fn sort_by_run<K: EdgeKeys>(
     keys: &K,
