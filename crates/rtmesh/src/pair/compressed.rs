@@ -82,9 +82,7 @@ pub fn pair_sah_compressed_reference(mesh: &TriMesh) -> Pairing {
     let n = mesh.triangle_count();
     let mut records: Vec<u128> = Vec::with_capacity(3 * n);
     for t in (0..n).filter(|&t| active.get(t)) {
-        let corners = mesh.corners(t);
-        for k in 0..3 {
-            let key = quantiser.key(corners[k], corners[(k + 1) % 3]);
+        for (k, key) in quantiser.side_keys(mesh, t).into_iter().enumerate() {
             records.push(key_bits(key) << 32 | (3 * t + k) as u128);
         }
     }
@@ -511,8 +509,7 @@ impl<'m> PositionKeys<'m> {
     #[inline]
     fn key(&self, h: &PositionHalfEdge) -> EdgeKey {
         let [t, k] = h.triangle_side();
-        let c = self.mesh.corners(t);
-        self.quantiser.key(c[k], c[(k + 1) % 3])
+        self.side_keys(t)[k]
     }
 }
 
