@@ -26,23 +26,24 @@ pub mod trace;
 pub use geom::{Aabb, Ray};
 pub use mesh::{Instance, Material, Scene, TriMesh};
 
+/// Hint the CPU to fetch the cache line of address `at`, which need not be valid nor
+/// safe to read (no effect where unsupported).
+#[inline(always)]
+pub(crate) fn prefetch_address<T>(at: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: prefetching is a hint; it never faults, whatever the address.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(at.cast::<i8>())
+    };
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = at;
+}
+
 /// Hint the CPU to fetch the cache lines of `value` (no effect where unsupported).
 #[inline(always)]
 pub(crate) fn prefetch<T: ?Sized>(value: &T) {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let start = (value as *const T).cast::<i8>();
-        let mut offset = 0;
-        while offset < std::mem::size_of_val(value) {
-            // SAFETY: prefetching is a hint; it never faults, whatever the address.
-            unsafe {
-                std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(
-                    start.wrapping_add(offset),
-                )
-            };
-            offset += 64;
-        }
+    let start = (value as *const T).cast::<u8>();
+    for offset in (0..std::mem::size_of_val(value)).step_by(64) {
+        prefetch_address(start.wrapping_add(offset));
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = value;
 }
