@@ -356,7 +356,7 @@ impl RankedSides {
 /// line read (20.6 → 19.0 ms). As it places a half-edge, the line of its triangle's
 /// slots in `links` is fetched, where the block kernel's scatter of links missed
 /// (side by side on the dragon, compressed keys, one core, Zen 4: medians of eight
-/// runs 60.5 → 58 ms in all; fetched as it counts, no gain).
+/// runs 60.7 → 58.0 ms in all; fetched as it counts, or with write intent, no gain).
 #[inline(always)]
 fn sort_by_run<K: EdgeKeys>(
     keys: &K,
