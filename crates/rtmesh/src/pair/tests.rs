@@ -478,8 +478,8 @@ fn parallel_parts_pair_like_one_thread() {
     }
 }
 
-/// Both fast routes, by index (with each of [`twin_searches`]) and by position, give the
-/// published procedures' pairings of `mesh` in a pool of each of `thread_counts`;
+/// Both fast routes, by index and by position, with each of [`kernel_choices`], give
+/// the published procedures' pairings of `mesh` in a pool of each of `thread_counts`;
 /// returns the indexed one.
 fn assert_fast_routes_pair_like_the_references(
     mesh: &TriMesh,
