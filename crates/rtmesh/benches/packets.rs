@@ -10,7 +10,7 @@
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rtmesh::bvh::BuildSettings;
 use rtmesh::trace::intersect::{closest_without_bvh, MollerPacket, MollerPre, Simd, TriangleSoa};
-use rtmesh::trace::workload::{trace_closest, trace_packets_closest};
+use rtmesh::trace::run::{trace_closest, trace_packets_closest};
 use rtmesh::trace::{Camera, Hit, NoCounters, SceneAccel, Workload};
 use rtmesh::Scene;
 

@@ -5,7 +5,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::trace::workload::trace_closest;
+use rtmesh::trace::run::trace_closest;
 use rtmesh::trace::{NoCounters, RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 

@@ -9,18 +9,18 @@
 
 pub mod bvh;
 pub mod data;
-#[cfg(feature = "embree")]
-pub mod embree;
 pub mod geom;
 pub mod io;
 pub mod lint;
 pub mod mesh;
 mod pages;
 pub mod pair;
+pub mod progress;
 pub mod random;
 pub mod render;
 pub mod repair;
 pub mod scenes;
+pub mod simd;
 pub mod trace;
 
 pub use geom::{Aabb, Ray};

@@ -480,7 +480,8 @@ fn probe_crossings<R: Send>(
     per_ray: impl Fn(&mut Vec<Crossing>) -> R + Sync,
 ) -> Vec<R> {
     use crate::bvh::BuildSettings;
-    use crate::trace::traverse::{any_hit, PortableNodeTest};
+    use crate::simd::Portable;
+    use crate::trace::traverse::any_hit;
     use crate::trace::{transform_query, Camera, NoCounters, RayQuery, SceneAccel, Workload};
     // Any tree finds the same crossings: the fast build.
     let accel = SceneAccel::build(scene, &BuildSettings::fast());
@@ -496,7 +497,7 @@ fn probe_crossings<R: Send>(
                 let placement = &scene.instances[instance];
                 let local = transform_query(&query, to_object);
                 let alpha = &scene.meshes[placement.mesh].alpha_tested;
-                any_hit::<PortableNodeTest, _, _>(
+                any_hit::<Portable, _, _>(
                     &accel.blas[placement.mesh],
                     &local,
                     ray.t_max,
@@ -530,7 +531,7 @@ fn probe_crossings<R: Send>(
                 // One untransformed placement.
                 None => cross(0, &glam::Affine3A::IDENTITY),
                 Some(tlas) => {
-                    any_hit::<PortableNodeTest, _, _>(
+                    any_hit::<Portable, _, _>(
                         tlas,
                         &query,
                         ray.t_max,

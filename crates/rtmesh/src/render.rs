@@ -7,7 +7,8 @@
 //! a dozen glyphs.
 
 use crate::mesh::Scene;
-use crate::trace::workload::{geometric_normal, trace_closest};
+use crate::trace::run::trace_closest;
+use crate::trace::workload::geometric_normal;
 use crate::trace::{Camera, RayCounters, SceneAccel, Workload};
 use glam::Vec3;
 use std::path::Path;

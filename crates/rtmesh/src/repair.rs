@@ -483,7 +483,7 @@ fn probe_rays(reference: &Scene) -> Vec<crate::Ray> {
 
 /// Mean box tests and triangle tests per ray of `rays` traced through `candidate`.
 fn probe_tests(rays: &[crate::Ray], candidate: &Scene) -> (f64, f64) {
-    use crate::trace::workload::trace_closest;
+    use crate::trace::run::trace_closest;
     use crate::trace::{Counters, RayCounters, SceneAccel};
     let accel = SceneAccel::build(candidate, &crate::bvh::BuildSettings::default());
     let mut total = RayCounters::default();

@@ -228,7 +228,7 @@ fn packets_and_intersectors_on_real_meshes() {
     use rtmesh::trace::intersect::{
         closest_without_bvh, IntersectorKind, MollerPacket, MollerPre, Simd, TriangleSoa,
     };
-    use rtmesh::trace::workload::{trace_closest_by, trace_packets_closest};
+    use rtmesh::trace::run::{trace_closest_by, trace_packets_closest};
     use rtmesh::trace::{Camera, Hit, NoCounters, SceneAccel, Workload};
     let Some(dir) = mesh_data_dir() else {
         return;

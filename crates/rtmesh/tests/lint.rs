@@ -8,7 +8,7 @@ use rtmesh::bvh::BuildSettings;
 use rtmesh::lint::{lint, LintSettings};
 use rtmesh::mesh::{weld_exact, EdgeAdjacency};
 use rtmesh::repair::{repair_mesh, Degenerate, RepairSettings};
-use rtmesh::trace::workload::trace_closest;
+use rtmesh::trace::run::trace_closest;
 use rtmesh::trace::{NoCounters, RayCounters, RayKind, SceneAccel, Workload};
 use rtmesh::{Scene, TriMesh};
 use std::collections::BTreeSet;

@@ -11,7 +11,7 @@ use rtmesh::trace::intersect::{
     Intersector, Moller, MollerPacket, MollerPre, Pluecker, Watertight,
 };
 use rtmesh::trace::packet::PacketBuffer;
-use rtmesh::trace::workload::{trace_closest_by, trace_packets_closest};
+use rtmesh::trace::run::{trace_closest_by, trace_packets_closest};
 use rtmesh::trace::{Camera, NoCounters, RayCounters, SceneAccel, Workload};
 use rtmesh::{Ray, Scene};
 

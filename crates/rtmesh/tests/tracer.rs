@@ -8,7 +8,7 @@ use glam::Vec3;
 use rtmesh::bvh::BuildSettings;
 use rtmesh::pair::PairMethod;
 use rtmesh::trace::intersect::reference_f64;
-use rtmesh::trace::workload::{trace_closest, trace_occluded};
+use rtmesh::trace::run::{trace_closest, trace_occluded};
 use rtmesh::trace::{Hit, NoCounters, Pair4, RayCounters, RayKind, SceneAccel, Tracer, Workload};
 use rtmesh::{Ray, Scene, TriMesh};
 

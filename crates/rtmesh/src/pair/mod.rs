@@ -204,6 +204,31 @@ pub struct PairReport {
     pub prescan_skipped: bool,
 }
 
+/// Weld and pair every geometry of `scene` in place: each mesh becomes its paired,
+/// reordered form (pairs first, as consecutive triangles, then the unpaired ones), its
+/// vertices as they were. The report sums the geometries.
+pub fn pair_scene(scene: &mut crate::Scene, settings: &PairSettings) -> PairReport {
+    let mut total = PairReport {
+        triangles: 0,
+        paired_triangles: 0,
+        pair_ratio: 0.0,
+        method: settings.method.to_string(),
+        seconds: 0.0,
+        prescan_skipped: !scene.meshes.is_empty(),
+    };
+    for mesh in &mut scene.meshes {
+        let welded = crate::mesh::weld_exact(mesh).mesh;
+        let (pairing, report) = pair(&welded, settings);
+        *mesh = reorder(mesh, &welded, &pairing).mesh;
+        total.triangles += report.triangles;
+        total.paired_triangles += report.paired_triangles;
+        total.seconds += report.seconds;
+        total.prescan_skipped &= report.prescan_skipped;
+    }
+    total.pair_ratio = total.paired_triangles as f64 / total.triangles.max(1) as f64;
+    total
+}
+
 /// Pair the triangles of `mesh` (by vertex index: weld first to join split vertices,
 /// except for `sah-compressed`, which keys edges by position).
 pub fn pair(mesh: &TriMesh, settings: &PairSettings) -> (Pairing, PairReport) {

@@ -1,7 +1,8 @@
 use super::greedy::{pair_sah, pair_sah_reference, pair_sah_with, sorted_half_edge_table};
-use super::suitor::{has_avx512, EXCLUDED};
+use super::suitor::EXCLUDED;
 use super::*;
 use crate::mesh::weld_exact;
+use crate::simd::has_avx512;
 use glam::Vec3;
 use proptest::prelude::*;
 

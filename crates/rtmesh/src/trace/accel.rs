@@ -4,16 +4,17 @@
 //! space (the direction is not renormalised, so `t` means the same in both spaces) and
 //! traverses that mesh's BVH. A scene of one untransformed mesh skips the TLAS.
 
+use super::intersect::Intersector;
+use super::packet::{self, PacketBuffer};
 use super::pair::{mesh_pairs, Pair4, PAIR4_LANES};
-#[cfg(target_arch = "x86_64")]
-use super::traverse::AvxNodeTest;
-use super::traverse::{any_hit, closest_hit, NodeTest, PortableNodeTest};
+use super::traverse::{any_hit, closest_hit};
 use super::triangle::{Triangle4, TRIANGLE4_LANES};
 use super::{Counters, Hit, LeafBlock, RayQuery, Tracer, Triangle};
 use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive};
 use crate::geom::{Aabb, Ray};
 use crate::mesh::{Scene, TriMesh};
 use crate::pair::Pairing;
+use crate::simd::{dispatch, Isa, Kernel};
 use glam::Affine3A;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -250,10 +251,10 @@ impl<L: LeafBlock> SceneAccel<L> {
 }
 
 impl<L: LeafBlock> SceneAccel<L> {
-    /// Closest hit of `ray` with node test `T` and leaf test `leaf` (which records a
+    /// Closest hit of `ray` with the node test of `S` and leaf test `leaf` (which records a
     /// closer hit into its `Hit` and says whether it did).
     #[inline(always)]
-    pub(crate) fn intersect_with<T: NodeTest, C: Counters>(
+    pub(crate) fn intersect_with<S: Isa, C: Counters>(
         &self,
         ray: &Ray,
         counters: &mut C,
@@ -265,14 +266,14 @@ impl<L: LeafBlock> SceneAccel<L> {
         match &self.tlas {
             None => {
                 if let Some(bvh) = self.blas.first() {
-                    if intersect_blas::<T, _, _>(bvh, &query, &mut hit, counters, leaf) {
+                    if intersect_blas::<S, _, _>(bvh, &query, &mut hit, counters, leaf) {
                         hit.instance = 0;
                         hit.geometry = 0;
                     }
                 }
             }
             Some(tlas) => {
-                closest_hit::<T, _, _>(
+                closest_hit::<S, _, _>(
                     tlas,
                     &query,
                     &mut hit.t.clone(),
@@ -281,7 +282,7 @@ impl<L: LeafBlock> SceneAccel<L> {
                         let mut found = false;
                         for instance in instances {
                             let local = transform_query(&query, &instance.world_to_object);
-                            if intersect_blas::<T, _, _>(
+                            if intersect_blas::<S, _, _>(
                                 &self.blas[instance.mesh as usize],
                                 &local,
                                 &mut hit,
@@ -305,10 +306,10 @@ impl<L: LeafBlock> SceneAccel<L> {
         hit
     }
 
-    /// Whether anything blocks `ray` within `(t_min, t_max)`, with node test `T` and
+    /// Whether anything blocks `ray` within `(t_min, t_max)`, with the node test of `S` and
     /// leaf test `leaf` (whether the block is hit before the given distance).
     #[inline(always)]
-    pub(crate) fn occluded_with<T: NodeTest, C: Counters>(
+    pub(crate) fn occluded_with<S: Isa, C: Counters>(
         &self,
         ray: &Ray,
         counters: &mut C,
@@ -317,9 +318,9 @@ impl<L: LeafBlock> SceneAccel<L> {
         let query = RayQuery::new(ray);
         match &self.tlas {
             None => self.blas.first().is_some_and(|bvh| {
-                occluded_blas::<T, _, _>(bvh, &query, ray.t_max, counters, leaf)
+                occluded_blas::<S, _, _>(bvh, &query, ray.t_max, counters, leaf)
             }),
-            Some(tlas) => any_hit::<T, _, _>(
+            Some(tlas) => any_hit::<S, _, _>(
                 tlas,
                 &query,
                 ray.t_max,
@@ -327,7 +328,7 @@ impl<L: LeafBlock> SceneAccel<L> {
                 |instances, t_max, counters| {
                     instances.iter().any(|instance| {
                         let local = transform_query(&query, &instance.world_to_object);
-                        occluded_blas::<T, _, _>(
+                        occluded_blas::<S, _, _>(
                             &self.blas[instance.mesh as usize],
                             &local,
                             t_max,
@@ -339,105 +340,179 @@ impl<L: LeafBlock> SceneAccel<L> {
             ),
         }
     }
+}
 
-    /// [`Self::intersect_with`] compiled with AVX.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    pub(crate) unsafe fn intersect_avx<C: Counters>(
-        &self,
-        ray: &Ray,
-        counters: &mut C,
-        leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
-    ) -> Hit {
-        self.intersect_with::<AvxNodeTest, C>(ray, counters, leaf)
-    }
+/// Closest hit of one ray through a scene, with leaf test `leaf` (or, where it is
+/// `None`, the blocks' own test for the instruction set), as a [`Kernel`].
+struct Closest<'a, L, C, F> {
+    accel: &'a SceneAccel<L>,
+    ray: &'a Ray,
+    counters: &'a mut C,
+    leaf: Option<F>,
+}
 
-    /// [`Self::occluded_with`] compiled with AVX.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx")]
-    pub(crate) unsafe fn occluded_avx<C: Counters>(
-        &self,
-        ray: &Ray,
-        counters: &mut C,
-        leaf: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
-    ) -> bool {
-        self.occluded_with::<AvxNodeTest, C>(ray, counters, leaf)
-    }
-
-    /// Closest hit: where the CPU has AVX, the AVX node test and leaf test `leaf_avx`
-    /// (which may use AVX: it only runs there), elsewhere the portable node test and
-    /// `leaf`.
+impl<L: LeafBlock, C: Counters, F: Fn(&L, &RayQuery, &mut Hit) -> bool + Copy> Kernel
+    for Closest<'_, L, C, F>
+{
+    type Output = Hit;
     #[inline(always)]
-    pub(crate) fn intersect_dispatched<C: Counters>(
-        &self,
-        ray: &Ray,
-        counters: &mut C,
-        leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
-        leaf_avx: impl Fn(&L, &RayQuery, &mut Hit) -> bool + Copy,
-    ) -> Hit {
-        #[cfg(target_arch = "x86_64")]
-        if super::lanes::has_avx() {
-            // SAFETY: the CPU has AVX.
-            return unsafe { self.intersect_avx(ray, counters, leaf_avx) };
+    fn run<S: Isa>(self) -> Hit {
+        match self.leaf {
+            Some(leaf) => self
+                .accel
+                .intersect_with::<S, C>(self.ray, self.counters, leaf),
+            None => self.accel.intersect_with::<S, C>(
+                self.ray,
+                self.counters,
+                #[inline(always)]
+                |block: &L, query: &RayQuery, hit: &mut Hit| {
+                    block_closest::<S, L>(block, query, hit)
+                },
+            ),
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = leaf_avx;
-        self.intersect_with::<PortableNodeTest, C>(ray, counters, leaf)
-    }
-
-    /// Occlusion, dispatched as [`Self::intersect_dispatched`].
-    #[inline(always)]
-    pub(crate) fn occluded_dispatched<C: Counters>(
-        &self,
-        ray: &Ray,
-        counters: &mut C,
-        leaf: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
-        leaf_avx: impl Fn(&L, &RayQuery, f32) -> bool + Copy,
-    ) -> bool {
-        #[cfg(target_arch = "x86_64")]
-        if super::lanes::has_avx() {
-            // SAFETY: the CPU has AVX.
-            return unsafe { self.occluded_avx(ray, counters, leaf_avx) };
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = leaf_avx;
-        self.occluded_with::<PortableNodeTest, C>(ray, counters, leaf)
     }
 }
 
+/// Occlusion of one ray through a scene, as [`Closest`].
+struct Occluded<'a, L, C, F> {
+    accel: &'a SceneAccel<L>,
+    ray: &'a Ray,
+    counters: &'a mut C,
+    leaf: Option<F>,
+}
+
+impl<L: LeafBlock, C: Counters, F: Fn(&L, &RayQuery, f32) -> bool + Copy> Kernel
+    for Occluded<'_, L, C, F>
+{
+    type Output = bool;
+    #[inline(always)]
+    fn run<S: Isa>(self) -> bool {
+        match self.leaf {
+            Some(leaf) => self
+                .accel
+                .occluded_with::<S, C>(self.ray, self.counters, leaf),
+            None => self.accel.occluded_with::<S, C>(
+                self.ray,
+                self.counters,
+                #[inline(always)]
+                |block: &L, query: &RayQuery, t_max: f32| {
+                    block_occludes::<S, L>(block, query, t_max)
+                },
+            ),
+        }
+    }
+}
+
+/// A leaf block's own closest-hit test, in AVX registers when `S` has AVX.
+#[inline(always)]
+fn block_closest<S: Isa, L: LeafBlock>(block: &L, query: &RayQuery, hit: &mut Hit) -> bool {
+    if S::AVX {
+        // SAFETY: code with an AVX `Isa` runs only on CPUs with AVX, compiled with it.
+        unsafe { block.intersect_into_avx(query, hit) }
+    } else {
+        block.intersect_into(query, hit)
+    }
+}
+
+/// A leaf block's own occlusion test, as [`block_closest`].
+#[inline(always)]
+fn block_occludes<S: Isa, L: LeafBlock>(block: &L, query: &RayQuery, t_max: f32) -> bool {
+    if S::AVX {
+        // SAFETY: as in `block_closest`.
+        unsafe { block.occludes_avx(query, t_max) }
+    } else {
+        block.occludes(query, t_max)
+    }
+}
+
+/// The type of a leaf test that is not given, for [`Closest`] and [`Occluded`].
+type OwnClosest<L> = fn(&L, &RayQuery, &mut Hit) -> bool;
+/// As [`OwnClosest`], for occlusion.
+type OwnOccludes<L> = fn(&L, &RayQuery, f32) -> bool;
+
 impl<L: LeafBlock> Tracer for SceneAccel<L> {
-    /// Closest hit of `ray`, counting work into `counters`; the AVX node test where the
-    /// CPU has it, the portable one elsewhere (bit-identical results).
+    /// Closest hit of `ray`, counting work into `counters`; AVX where the CPU has it,
+    /// the portable code elsewhere (bit-identical results).
     #[inline]
     fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
-        self.intersect_dispatched(
+        dispatch(Closest::<L, C, OwnClosest<L>> {
+            accel: self,
             ray,
             counters,
-            #[inline(always)]
-            |block: &L, query: &RayQuery, hit: &mut Hit| block.intersect_into(query, hit),
-            #[inline(always)]
-            |block: &L, query: &RayQuery, hit: &mut Hit| {
-                // SAFETY: `intersect_dispatched` calls this only on CPUs with AVX, from
-                // code compiled with it.
-                unsafe { block.intersect_into_avx(query, hit) }
-            },
-        )
+            leaf: None,
+        })
     }
 
     /// Whether anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        self.occluded_dispatched(
+        dispatch(Occluded::<L, C, OwnOccludes<L>> {
+            accel: self,
             ray,
             counters,
-            #[inline(always)]
-            |block: &L, query: &RayQuery, t_max: f32| block.occludes(query, t_max),
-            #[inline(always)]
-            |block: &L, query: &RayQuery, t_max: f32| {
-                // SAFETY: as in `intersect`.
-                unsafe { block.occludes_avx(query, t_max) }
-            },
-        )
+            leaf: None,
+        })
+    }
+}
+
+impl SceneAccel<Triangle4> {
+    /// Closest hit of one ray with intersector `I` in the leaves (single-ray
+    /// traversal: the reference for [`Self::intersect_packet`]).
+    pub fn intersect_by<I: Intersector, C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+        dispatch(Closest {
+            accel: self,
+            ray,
+            counters,
+            leaf: Some(packet::block_closest::<I>),
+        })
+    }
+
+    /// Whether anything blocks one ray, with intersector `I` in the leaves.
+    pub fn occluded_by<I: Intersector, C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        dispatch(Occluded {
+            accel: self,
+            ray,
+            counters,
+            leaf: Some(packet::block_occludes::<I>),
+        })
+    }
+
+    /// Closest hits of up to 64 rays, traced as a packet with intersector `I` (ray by
+    /// ray in scenes with a top level). `hits` and `counters` have one entry per ray.
+    pub fn intersect_packet<I: Intersector, C: Counters>(
+        &self,
+        buffer: &mut PacketBuffer,
+        rays: &[Ray],
+        hits: &mut [Hit],
+        counters: &mut [C],
+    ) {
+        assert!(hits.len() == rays.len() && counters.len() == rays.len());
+        let (None, Some(bvh), false) = (&self.tlas, self.blas.first(), rays.is_empty()) else {
+            for ((ray, hit), counter) in rays.iter().zip(hits.iter_mut()).zip(counters) {
+                *hit = self.intersect_by::<I, C>(ray, counter);
+            }
+            return;
+        };
+        packet::closest::<I, C>(bvh, buffer, rays, hits, counters);
+    }
+
+    /// Occlusion of up to 64 rays (shadow rays from one hit point, say), traced as a
+    /// packet with intersector `I`.
+    pub fn occluded_packet<I: Intersector, C: Counters>(
+        &self,
+        buffer: &mut PacketBuffer,
+        rays: &[Ray],
+        occluded: &mut [bool],
+        counters: &mut [C],
+    ) {
+        assert!(occluded.len() == rays.len() && counters.len() == rays.len());
+        let (None, Some(bvh), false) = (&self.tlas, self.blas.first(), rays.is_empty()) else {
+            for ((ray, blocked), counter) in rays.iter().zip(occluded.iter_mut()).zip(counters) {
+                *blocked = self.occluded_by::<I, C>(ray, counter);
+            }
+            return;
+        };
+        packet::occluded::<I, C>(bvh, buffer, rays, occluded, counters);
     }
 }
 
@@ -454,7 +529,7 @@ pub(crate) fn transform_query(query: &RayQuery, world_to_object: &Affine3A) -> R
 }
 
 #[inline(always)]
-fn intersect_blas<T: NodeTest, L: LeafBlock, C: Counters>(
+fn intersect_blas<S: Isa, L: LeafBlock, C: Counters>(
     bvh: &Bvh<L>,
     query: &RayQuery,
     hit: &mut Hit,
@@ -462,7 +537,7 @@ fn intersect_blas<T: NodeTest, L: LeafBlock, C: Counters>(
     leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool,
 ) -> bool {
     let mut t_max = hit.t;
-    closest_hit::<T, _, _>(
+    closest_hit::<S, _, _>(
         bvh,
         query,
         &mut t_max,
@@ -483,14 +558,14 @@ fn intersect_blas<T: NodeTest, L: LeafBlock, C: Counters>(
 }
 
 #[inline(always)]
-fn occluded_blas<T: NodeTest, L: LeafBlock, C: Counters>(
+fn occluded_blas<S: Isa, L: LeafBlock, C: Counters>(
     bvh: &Bvh<L>,
     query: &RayQuery,
     t_max: f32,
     counters: &mut C,
     leaf: impl Fn(&L, &RayQuery, f32) -> bool,
 ) -> bool {
-    any_hit::<T, _, _>(
+    any_hit::<S, _, _>(
         bvh,
         query,
         t_max,
@@ -508,6 +583,7 @@ fn occluded_blas<T: NodeTest, L: LeafBlock, C: Counters>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::simd::Portable;
     use crate::trace::{NoCounters, RayKind, Workload};
 
     #[test]
@@ -520,13 +596,13 @@ mod tests {
             for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
                 let work = Workload::generate(kind, &scene, &accel, 64, 64, 2);
                 for ray in &work.rays {
-                    let portable = accel.intersect_with::<PortableNodeTest, _>(
+                    let portable = accel.intersect_with::<Portable, _>(
                         ray,
                         &mut NoCounters,
                         Triangle4::intersect_into,
                     );
                     assert_eq!(accel.intersect(ray, &mut NoCounters), portable);
-                    let blocked = accel.occluded_with::<PortableNodeTest, _>(
+                    let blocked = accel.occluded_with::<Portable, _>(
                         ray,
                         &mut NoCounters,
                         Triangle4::occludes,

@@ -33,10 +33,10 @@
 //! `t_min < t < t_max`, and degenerate triangles, rays in a triangle's plane, zero and
 //! NaN directions all miss (a zero or non-finite denominator fails every range test).
 
-use super::lanes::{Lanes, V3};
 use super::Hit;
 use crate::geom::Ray;
 use crate::mesh::TriMesh;
+use crate::simd::{dispatch, Isa, Kernel, Lanes, V3};
 use glam::Vec3;
 use std::fmt;
 use std::ops::{Add, Sub};
@@ -839,7 +839,7 @@ impl Simd {
     /// The widths this CPU runs.
     pub fn available() -> Vec<Simd> {
         let mut widths = vec![Simd::Scalar, Simd::X4];
-        if super::lanes::has_avx() {
+        if crate::simd::has_avx() {
             widths.push(Simd::X8);
         }
         widths
@@ -856,7 +856,7 @@ impl Simd {
 }
 
 /// [`packet_closest_without_bvh`] over a whole list of packets (`packets` = consecutive
-/// runs of `rays` of the given lengths) with `I` and `simd` (X8 falls back to X4 on
+/// runs of `rays` of the given lengths) with `I` and `simd` (X8 runs `wide`'s 8 lanes on
 /// CPUs without AVX).
 pub fn closest_without_bvh<I: Intersector>(
     simd: Simd,
@@ -874,12 +874,13 @@ pub fn closest_without_bvh<I: Intersector>(
     for (rays, hits) in rays.chunks(packet).zip(hits.chunks_mut(packet)) {
         match simd {
             Simd::Scalar => packet_closest_without_bvh::<I, f32>(soa, rays, hits),
-            #[cfg(target_arch = "x86_64")]
-            Simd::X8 if super::lanes::has_avx() => {
-                // SAFETY: the CPU has AVX.
-                unsafe { packet_closest_avx::<I>(soa, rays, hits) }
-            }
-            _ => packet_closest_without_bvh::<I, wide::f32x4>(soa, rays, hits),
+            Simd::X4 => packet_closest_without_bvh::<I, wide::f32x4>(soa, rays, hits),
+            Simd::X8 => dispatch(EightWide::<I> {
+                soa,
+                rays,
+                hits,
+                intersector: std::marker::PhantomData,
+            }),
         }
     }
     for hit in hits.iter_mut() {
@@ -889,39 +890,20 @@ pub fn closest_without_bvh<I: Intersector>(
     }
 }
 
-/// [`packet_closest_without_bvh`] with 8 AVX lanes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-unsafe fn packet_closest_avx<I: Intersector>(soa: &TriangleSoa, rays: &[Ray], hits: &mut [Hit]) {
-    packet_closest_without_bvh::<I, super::lanes::Avx8>(soa, rays, hits)
+/// [`packet_closest_without_bvh`] on the CPU's 8 lanes, as a [`Kernel`].
+struct EightWide<'a, I> {
+    soa: &'a TriangleSoa,
+    rays: &'a [Ray],
+    hits: &'a mut [Hit],
+    intersector: std::marker::PhantomData<I>,
 }
 
-/// The paper's experiment, one configuration: `rays` (packets are consecutive runs of
-/// `packet` rays sharing an origin) against every triangle of `soa`, `runs` times on
-/// the current rayon pool (a work item is 64 packets); returns the median seconds and
-/// the hits.
-pub fn measure_without_bvh(
-    kind: IntersectorKind,
-    simd: Simd,
-    soa: &TriangleSoa,
-    rays: &[Ray],
-    packet: usize,
-    runs: usize,
-) -> (f64, Vec<Hit>) {
-    use rayon::prelude::*;
-    let mut hits = vec![Hit::MISS; rays.len()];
-    let mut seconds = Vec::with_capacity(runs);
-    let chunk = packet * 64;
-    for _ in 0..runs.max(1) {
-        let start = std::time::Instant::now();
-        rays.par_chunks(chunk)
-            .zip(hits.par_chunks_mut(chunk))
-            .for_each(|(rays, hits)| {
-                closest_without_bvh_by_kind(kind, simd, soa, rays, hits, packet)
-            });
-        seconds.push(start.elapsed().as_secs_f64());
+impl<I: Intersector> Kernel for EightWide<'_, I> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Isa>(self) {
+        packet_closest_without_bvh::<I, S::Lanes8>(self.soa, self.rays, self.hits)
     }
-    (super::workload::median(&seconds), hits)
 }
 
 /// [`closest_without_bvh`] with the intersector named by `kind`.

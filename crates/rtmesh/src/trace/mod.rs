@@ -1,26 +1,27 @@
 //! The measuring ray tracer: hits, counters, prepared rays, the triangle leaves, ordered
-//! 8-wide BVH traversal, one- and two-level scenes, deterministic workloads, and
-//! side-by-side comparisons with other tracers.
+//! 8-wide BVH traversal, one- and two-level scenes, deterministic workloads, runners
+//! and measurement.
 //!
 //! Counters are a type parameter ([`Counters`]): with [`NoCounters`] every count is an
 //! empty inline function and the compiler removes it, so timed runs pay nothing; with
 //! [`RayCounters`] the same code counts box tests, primitive tests and nodes.
 
 pub mod accel;
-pub mod compare;
 pub mod intersect;
-pub mod lanes;
+pub mod measure;
 pub mod packet;
 pub mod pair;
-pub mod traverse;
+pub mod run;
+pub(crate) mod traverse;
 pub mod triangle;
 pub mod workload;
 
 pub(crate) use accel::transform_query;
 pub use accel::SceneAccel;
+pub use measure::TraceRun;
 pub use pair::{Pair4, TrianglePair};
 pub use triangle::Triangle;
-pub use workload::{Camera, RayKind, TraceRun, Workload};
+pub use workload::{Camera, RayKind, Workload};
 
 use crate::bvh::Primitive;
 use crate::geom::Ray;

@@ -23,12 +23,12 @@
 //! Scenes with a top level are traced ray by ray.
 
 use super::intersect::{BasicRay, Intersector, MAX_PACKET_RAYS};
-use super::lanes::Lanes;
 use super::traverse::{insert_nearest_last, Stack};
 use super::triangle::Triangle4;
-use super::{safe_reciprocal, Counters, Hit, RayQuery, SceneAccel, ROBUST_FAR_SCALE};
+use super::{safe_reciprocal, Counters, Hit, RayQuery, ROBUST_FAR_SCALE};
 use crate::bvh::{Bvh, BvhNode, Child, EMPTY_CHILD, WIDTH};
 use crate::geom::Ray;
+use crate::simd::{dispatch, Isa, Kernel, Lanes};
 use glam::Vec3;
 use wide::f32x4;
 
@@ -464,7 +464,11 @@ fn occluded_in_bvh<L: Lanes, I: Intersector, C: Counters, const GENERAL: bool>(
 
 /// Test one leaf block for one ray with intersector `I`; record a closer hit.
 #[inline(always)]
-fn block_closest<I: Intersector>(block: &Triangle4, query: &RayQuery, hit: &mut Hit) -> bool {
+pub(crate) fn block_closest<I: Intersector>(
+    block: &Triangle4,
+    query: &RayQuery,
+    hit: &mut Hit,
+) -> bool {
     let ray = basic(query);
     let shared = I::share::<f32x4>(block, ray.origin);
     let found = I::test::<f32x4>(block, &shared, &ray, &I::prepare(&ray), hit.t);
@@ -482,7 +486,11 @@ fn block_closest<I: Intersector>(block: &Triangle4, query: &RayQuery, hit: &mut 
 
 /// Whether one leaf block blocks one ray before `t_max`, with intersector `I`.
 #[inline(always)]
-fn block_occludes<I: Intersector>(block: &Triangle4, query: &RayQuery, t_max: f32) -> bool {
+pub(crate) fn block_occludes<I: Intersector>(
+    block: &Triangle4,
+    query: &RayQuery,
+    t_max: f32,
+) -> bool {
     let ray = basic(query);
     let shared = I::share::<f32x4>(block, ray.origin);
     I::test::<f32x4>(block, &shared, &ray, &I::prepare(&ray), t_max).is_some()
@@ -499,80 +507,93 @@ fn basic(query: &RayQuery) -> BasicRay {
     }
 }
 
-impl SceneAccel<Triangle4> {
-    /// Closest hit of one ray with intersector `I` in the leaves (single-ray
-    /// traversal: the reference for [`Self::intersect_packet`]).
-    pub fn intersect_by<I: Intersector, C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
-        self.intersect_dispatched(ray, counters, block_closest::<I>, block_closest::<I>)
+/// Closest hits of up to 64 rays through `bvh` (a scene of one untransformed mesh),
+/// traced as a packet with intersector `I`: the traversal of this file on the lanes of
+/// the CPU's instruction set.
+pub(crate) fn closest<I: Intersector, C: Counters>(
+    bvh: &Bvh<Triangle4>,
+    buffer: &mut PacketBuffer,
+    rays: &[Ray],
+    hits: &mut [Hit],
+    counters: &mut [C],
+) {
+    for (hit, ray) in hits.iter_mut().zip(rays) {
+        *hit = Hit::MISS;
+        hit.t = ray.t_max;
     }
-
-    /// Whether anything blocks one ray, with intersector `I` in the leaves.
-    pub fn occluded_by<I: Intersector, C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        self.occluded_dispatched(ray, counters, block_occludes::<I>, block_occludes::<I>)
-    }
-
-    /// Closest hits of up to 64 rays, traced as a packet with intersector `I` (ray by
-    /// ray in scenes with a top level). `hits` and `counters` have one entry per ray.
-    pub fn intersect_packet<I: Intersector, C: Counters>(
-        &self,
-        buffer: &mut PacketBuffer,
-        rays: &[Ray],
-        hits: &mut [Hit],
-        counters: &mut [C],
-    ) {
-        assert!(hits.len() == rays.len() && counters.len() == rays.len());
-        let packet = &mut *buffer.0;
-        let (None, Some(bvh), false) = (&self.tlas, self.blas.first(), rays.is_empty()) else {
-            for ((ray, hit), counter) in rays.iter().zip(hits.iter_mut()).zip(counters) {
-                *hit = self.intersect_by::<I, C>(ray, counter);
-            }
-            return;
-        };
-        for (hit, ray) in hits.iter_mut().zip(rays) {
-            *hit = Hit::MISS;
-            hit.t = ray.t_max;
-        }
-        #[cfg(target_arch = "x86_64")]
-        if super::lanes::has_avx() {
-            // SAFETY: the CPU has AVX.
-            unsafe { closest_avx::<I, C>(bvh, packet, rays, hits, counters) };
-        } else {
-            closest_portable::<I, C>(bvh, packet, rays, hits, counters);
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        closest_portable::<I, C>(bvh, packet, rays, hits, counters);
-        for hit in hits.iter_mut() {
-            if !hit.is_hit() {
-                hit.t = f32::INFINITY;
-            }
+    dispatch(ClosestPacket::<I, C> {
+        bvh,
+        packet: &mut buffer.0,
+        rays,
+        hits,
+        counters,
+        intersector: std::marker::PhantomData,
+    });
+    for hit in hits.iter_mut() {
+        if !hit.is_hit() {
+            hit.t = f32::INFINITY;
         }
     }
+}
 
-    /// Occlusion of up to 64 rays (shadow rays from one hit point, say), traced as a
-    /// packet with intersector `I`.
-    pub fn occluded_packet<I: Intersector, C: Counters>(
-        &self,
-        buffer: &mut PacketBuffer,
-        rays: &[Ray],
-        occluded: &mut [bool],
-        counters: &mut [C],
-    ) {
-        assert!(occluded.len() == rays.len() && counters.len() == rays.len());
-        let packet = &mut *buffer.0;
-        let (None, Some(bvh), false) = (&self.tlas, self.blas.first(), rays.is_empty()) else {
-            for ((ray, blocked), counter) in rays.iter().zip(occluded.iter_mut()).zip(counters) {
-                *blocked = self.occluded_by::<I, C>(ray, counter);
-            }
-            return;
-        };
-        occluded.fill(false);
-        #[cfg(target_arch = "x86_64")]
-        if super::lanes::has_avx() {
-            // SAFETY: the CPU has AVX.
-            unsafe { occluded_avx::<I, C>(bvh, packet, rays, occluded, counters) };
-            return;
-        }
-        occluded_portable::<I, C>(bvh, packet, rays, occluded, counters);
+/// Occlusion of up to 64 rays through `bvh`, as [`closest`].
+pub(crate) fn occluded<I: Intersector, C: Counters>(
+    bvh: &Bvh<Triangle4>,
+    buffer: &mut PacketBuffer,
+    rays: &[Ray],
+    occluded: &mut [bool],
+    counters: &mut [C],
+) {
+    occluded.fill(false);
+    dispatch(OccludedPacket::<I, C> {
+        bvh,
+        packet: &mut buffer.0,
+        rays,
+        occluded,
+        counters,
+        intersector: std::marker::PhantomData,
+    });
+}
+
+/// [`closest_with`] as a [`Kernel`].
+struct ClosestPacket<'a, I, C> {
+    bvh: &'a Bvh<Triangle4>,
+    packet: &'a mut Packet,
+    rays: &'a [Ray],
+    hits: &'a mut [Hit],
+    counters: &'a mut [C],
+    intersector: std::marker::PhantomData<I>,
+}
+
+impl<I: Intersector, C: Counters> Kernel for ClosestPacket<'_, I, C> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Isa>(self) {
+        closest_with::<S::Lanes8, I, C>(self.bvh, self.packet, self.rays, self.hits, self.counters)
+    }
+}
+
+/// [`occluded_with`] as a [`Kernel`].
+struct OccludedPacket<'a, I, C> {
+    bvh: &'a Bvh<Triangle4>,
+    packet: &'a mut Packet,
+    rays: &'a [Ray],
+    occluded: &'a mut [bool],
+    counters: &'a mut [C],
+    intersector: std::marker::PhantomData<I>,
+}
+
+impl<I: Intersector, C: Counters> Kernel for OccludedPacket<'_, I, C> {
+    type Output = ();
+    #[inline(always)]
+    fn run<S: Isa>(self) {
+        occluded_with::<S::Lanes8, I, C>(
+            self.bvh,
+            self.packet,
+            self.rays,
+            self.occluded,
+            self.counters,
+        )
     }
 }
 
@@ -609,52 +630,4 @@ fn occluded_with<L: Lanes, I: Intersector, C: Counters>(
     } else {
         occluded_in_bvh::<L, I, C, false>(bvh, packet, occluded, counters)
     }
-}
-
-/// [`closest_with`] on `wide`'s portable 8 lanes.
-fn closest_portable<I: Intersector, C: Counters>(
-    bvh: &Bvh<Triangle4>,
-    packet: &mut Packet,
-    rays: &[Ray],
-    hits: &mut [Hit],
-    counters: &mut [C],
-) {
-    closest_with::<wide::f32x8, I, C>(bvh, packet, rays, hits, counters)
-}
-
-/// [`occluded_with`] on `wide`'s portable 8 lanes.
-fn occluded_portable<I: Intersector, C: Counters>(
-    bvh: &Bvh<Triangle4>,
-    packet: &mut Packet,
-    rays: &[Ray],
-    occluded: &mut [bool],
-    counters: &mut [C],
-) {
-    occluded_with::<wide::f32x8, I, C>(bvh, packet, rays, occluded, counters)
-}
-
-/// [`closest_with`] on AVX lanes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-unsafe fn closest_avx<I: Intersector, C: Counters>(
-    bvh: &Bvh<Triangle4>,
-    packet: &mut Packet,
-    rays: &[Ray],
-    hits: &mut [Hit],
-    counters: &mut [C],
-) {
-    closest_with::<super::lanes::Avx8, I, C>(bvh, packet, rays, hits, counters)
-}
-
-/// [`occluded_with`] on AVX lanes.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-unsafe fn occluded_avx<I: Intersector, C: Counters>(
-    bvh: &Bvh<Triangle4>,
-    packet: &mut Packet,
-    rays: &[Ray],
-    occluded: &mut [bool],
-    counters: &mut [C],
-) {
-    occluded_with::<super::lanes::Avx8, I, C>(bvh, packet, rays, occluded, counters)
 }

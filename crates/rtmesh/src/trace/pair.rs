@@ -31,14 +31,14 @@
 //! [`crate::pair::reorder`] writes.
 
 use super::intersect::LaneHits;
-#[cfg(target_arch = "x86_64")]
-use super::lanes::Avx8;
-use super::lanes::{Lanes, V3};
 use super::{Counters, Hit, LeafBlock, RayQuery};
 use crate::bvh::Primitive;
 use crate::geom::Aabb;
 use crate::mesh::TriMesh;
 use crate::pair::{quad, Pairing};
+#[cfg(target_arch = "x86_64")]
+use crate::simd::Avx8;
+use crate::simd::{Lanes, V3};
 use glam::Vec3;
 use std::ops::Sub;
 use wide::f32x8;
@@ -336,7 +336,7 @@ mod tests {
                 assert_eq!(got, expected, "block {block}");
                 assert_eq!(packed.occludes(&ray, f32::INFINITY), found);
                 #[cfg(target_arch = "x86_64")]
-                if crate::trace::lanes::has_avx() {
+                if crate::simd::has_avx() {
                     let mut avx = Hit::MISS;
                     // SAFETY: the CPU has AVX (in a function compiled without it the
                     // intrinsics run as calls, same instructions).

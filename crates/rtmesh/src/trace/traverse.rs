@@ -15,6 +15,7 @@
 use super::{Counters, RayQuery};
 use crate::bvh::WIDTH;
 use crate::bvh::{Bvh, BvhNode, Child, EMPTY_CHILD};
+use crate::simd::Isa;
 use wide::f32x8;
 
 /// Deepest stack any tree of ours needs: the builder bounds the binary depth at 64 SAH
@@ -55,56 +56,42 @@ impl<T: Copy> Stack<T> {
     }
 }
 
-/// The ray–box test of one node's eight children: near distances and the mask of those
-/// the ray enters before `t_max`. Two implementations compute bit-identical results:
-/// [`PortableNodeTest`] (the `wide` crate, any CPU) and, on x86-64 CPUs with AVX,
-/// [`AvxNodeTest`] (one 256-bit register per plane instead of two halves), chosen at
-/// run time by [`crate::trace::SceneAccel`].
-pub trait NodeTest {
-    /// Near distances and hit mask of `node`'s children.
-    fn children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32);
+/// Near distances and hit mask of `node`'s children, with the node test of `S`: AVX's
+/// 256-bit registers, or `wide`'s portable 8 lanes (the reference: the same operations,
+/// so the same results).
+#[inline(always)]
+pub(crate) fn children<S: Isa>(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+    #[cfg(target_arch = "x86_64")]
+    if S::AVX {
+        // SAFETY: code with an AVX `Isa` runs only on CPUs with AVX, compiled with it.
+        return unsafe { avx_children(node, ray, t_max) };
+    }
+    portable_children(node, ray, t_max)
 }
 
 /// The node test on any CPU: `wide`'s 8-lane floats (two SSE/NEON halves, or AVX when
-/// the whole program is compiled for it). The reference for [`AvxNodeTest`].
-pub struct PortableNodeTest;
-
-impl NodeTest for PortableNodeTest {
-    #[inline(always)]
-    fn children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
-        let p = &node.planes;
-        let ([nx, ny, nz], [fx, fy, fz]) = (ray.near_plane, ray.far_plane);
-        let o = ray.origin;
-        let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
-        let slab = |plane: usize, origin: f32, inverse: f32| {
-            (f32x8::new(p[plane]) - f32x8::splat(origin)) * f32x8::splat(inverse)
-        };
-        let near = slab(nx, o.x, i.x)
-            .fast_max(slab(ny, o.y, i.y))
-            .fast_max(slab(nz, o.z, i.z).fast_max(f32x8::splat(ray.t_min)));
-        let far = slab(fx, o.x, f.x)
-            .fast_min(slab(fy, o.y, f.y))
-            .fast_min(slab(fz, o.z, f.z).fast_min(f32x8::splat(t_max)));
-        (near.to_array(), near.simd_le(far).to_bitmask())
-    }
+/// the whole program is compiled for it).
+#[inline(always)]
+fn portable_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+    let p = &node.planes;
+    let ([nx, ny, nz], [fx, fy, fz]) = (ray.near_plane, ray.far_plane);
+    let o = ray.origin;
+    let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
+    let slab = |plane: usize, origin: f32, inverse: f32| {
+        (f32x8::new(p[plane]) - f32x8::splat(origin)) * f32x8::splat(inverse)
+    };
+    let near = slab(nx, o.x, i.x)
+        .fast_max(slab(ny, o.y, i.y))
+        .fast_max(slab(nz, o.z, i.z).fast_max(f32x8::splat(ray.t_min)));
+    let far = slab(fx, o.x, f.x)
+        .fast_min(slab(fy, o.y, f.y))
+        .fast_min(slab(fz, o.z, f.z).fast_min(f32x8::splat(t_max)));
+    (near.to_array(), near.simd_le(far).to_bitmask())
 }
 
-/// The node test with AVX: the same operations as [`PortableNodeTest`] in single
-/// 256-bit instructions. Only for code compiled with AVX enabled (see
-/// [`crate::trace::SceneAccel`]'s dispatch).
-#[cfg(target_arch = "x86_64")]
-pub struct AvxNodeTest;
-
-#[cfg(target_arch = "x86_64")]
-impl NodeTest for AvxNodeTest {
-    #[inline(always)]
-    fn children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
-        // SAFETY: `AvxNodeTest` is only used inside functions compiled with AVX, which
-        // are only called after `is_x86_feature_detected!("avx")`.
-        unsafe { avx_children(node, ray, t_max) }
-    }
-}
-
+/// The node test with AVX: the same operations as [`portable_children`] in single
+/// 256-bit instructions.
+///
 /// No `#[target_feature]` of its own, so that it inlines into its AVX-compiled callers
 /// (a function with the attribute cannot be inlined into `children`, which has none,
 /// and stayed an out-of-line call per node visit); the intrinsics inline there.
@@ -187,7 +174,7 @@ fn count_boxes<C: Counters>(node: &BvhNode, counters: &mut C) {
 /// lowers `t_max` when it finds a closer hit, and returns whether it did. Returns
 /// whether anything was hit.
 #[inline(always)]
-pub fn closest_hit<T: NodeTest, P, C: Counters>(
+pub(crate) fn closest_hit<S: Isa, P, C: Counters>(
     bvh: &Bvh<P>,
     ray: &RayQuery,
     t_max: &mut f32,
@@ -202,7 +189,7 @@ pub fn closest_hit<T: NodeTest, P, C: Counters>(
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_boxes(node, counters);
-                let (near, mut mask) = T::children(node, ray, *t_max);
+                let (near, mut mask) = children::<S>(node, ray, *t_max);
                 if mask != 0 {
                     // One child hit (the common case for incoherent rays): go on.
                     let lane = mask.trailing_zeros() as usize;
@@ -254,7 +241,7 @@ pub fn closest_hit<T: NodeTest, P, C: Counters>(
 /// Any-hit traversal: stops at the first leaf hit. `leaf(primitives, t_max, counters)`
 /// returns whether a primitive blocks the ray.
 #[inline(always)]
-pub fn any_hit<T: NodeTest, P, C: Counters>(
+pub(crate) fn any_hit<S: Isa, P, C: Counters>(
     bvh: &Bvh<P>,
     ray: &RayQuery,
     t_max: f32,
@@ -268,7 +255,7 @@ pub fn any_hit<T: NodeTest, P, C: Counters>(
             Child::Inner(index) => {
                 let node = &bvh.nodes[index as usize];
                 count_boxes(node, counters);
-                let (_, mut mask) = T::children(node, ray, t_max);
+                let (_, mut mask) = children::<S>(node, ray, t_max);
                 if mask != 0 {
                     current = node.children[mask.trailing_zeros() as usize];
                     mask &= mask - 1;

@@ -10,10 +10,10 @@
 //! same IEEE operations in the same order, so their hits are bit-identical.
 
 use super::intersect::{LaneHits, TriangleLanes};
-use super::lanes::V3;
 use super::{Counters, Hit, LeafBlock, RayQuery};
 use crate::bvh::Primitive;
 use crate::geom::Aabb;
+use crate::simd::V3;
 use glam::Vec3;
 use std::ops::{Add, Sub};
 use wide::f32x4;

@@ -2,14 +2,18 @@
 //! tracer (Embree with the `embree` feature), timed alternately in one process, with
 //! medians, build times and the share of rays that hit the same input triangle.
 
-use super::workload::{median, trace_closest, trace_occluded, with_threads};
-use super::{Hit, NoCounters, RayKind, SceneAccel, Tracer, Workload};
-use crate::bvh::BuildSettings;
-use crate::mesh::Scene;
-use serde::Serialize;
+use crate::LabError;
+use rtmesh::bvh::BuildSettings;
+use rtmesh::trace::measure::{median, with_threads};
+use rtmesh::trace::run::{trace_closest, trace_occluded};
+use rtmesh::trace::{Hit, NoCounters, RayKind, SceneAccel, Tracer, Workload};
+use rtmesh::Scene;
+use serde::ser::{Serialize, SerializeMap, Serializer};
 
-/// One mesh, one workload, one thread count: rtmesh against another tracer.
-#[derive(Clone, Debug, Serialize)]
+/// One mesh, one workload, one thread count: rtmesh against another tracer. In JSON
+/// the other tracer's figures are named after it (`embree_mrays_per_s`,
+/// `embree_build_seconds`).
+#[derive(Clone, Debug)]
 pub struct Comparison {
     /// Mesh name.
     pub mesh: String,
@@ -38,20 +42,23 @@ pub struct Comparison {
     pub rtmesh_sah_cost: f32,
 }
 
-impl Comparison {
-    /// The JSON object, with the other tracer's keys named after it
-    /// (`embree_mrays_per_s`, `embree_build_seconds`).
-    pub fn to_json(&self) -> serde_json::Value {
-        let mut value = serde_json::to_value(self).expect("plain data");
-        let map = value.as_object_mut().expect("object");
+impl Serialize for Comparison {
+    fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let other = self.other.to_lowercase();
-        if let Some(v) = map.remove("other_mrays_per_s") {
-            map.insert(format!("{other}_mrays_per_s"), v);
-        }
-        if let Some(v) = map.remove("other_build_seconds") {
-            map.insert(format!("{other}_build_seconds"), v);
-        }
-        value
+        let mut map = serializer.serialize_map(Some(12))?;
+        map.serialize_entry("mesh", &self.mesh)?;
+        map.serialize_entry("workload", &self.workload)?;
+        map.serialize_entry("rays", &self.rays)?;
+        map.serialize_entry("threads", &self.threads)?;
+        map.serialize_entry("other", &self.other)?;
+        map.serialize_entry("rtmesh_mrays_per_s", &self.rtmesh_mrays_per_s)?;
+        map.serialize_entry(&format!("{other}_mrays_per_s"), &self.other_mrays_per_s)?;
+        map.serialize_entry("ratio", &self.ratio)?;
+        map.serialize_entry("rtmesh_build_seconds", &self.rtmesh_build_seconds)?;
+        map.serialize_entry(&format!("{other}_build_seconds"), &self.other_build_seconds)?;
+        map.serialize_entry("same_hits", &self.same_hits)?;
+        map.serialize_entry("rtmesh_sah_cost", &self.rtmesh_sah_cost)?;
+        map.end()
     }
 }
 
@@ -96,7 +103,7 @@ pub trait Reference: Tracer + Sized {
     /// Name used in tables and JSON keys.
     const NAME: &'static str;
     /// Build for `scene` with `threads` build threads; returns it and its build seconds.
-    fn build(scene: &Scene, threads: usize) -> Result<(Self, f64), String>;
+    fn build(scene: &Scene, threads: usize) -> Result<(Self, f64), LabError>;
 }
 
 /// What a comparison traces and how often.
@@ -120,7 +127,7 @@ pub fn compare<R: Reference>(
     mesh: &str,
     scene: &Scene,
     settings: &CompareSettings,
-) -> Result<Vec<Comparison>, String> {
+) -> Result<Vec<Comparison>, LabError> {
     let CompareSettings {
         kinds,
         size: (width, height),
@@ -131,7 +138,7 @@ pub fn compare<R: Reference>(
     let (width, height, runs, builds) = (*width, *height, *runs, *builds);
     let mut rows = Vec::new();
     for &threads in thread_counts {
-        let result = with_threads(threads, || -> Result<Vec<Comparison>, String> {
+        let result = with_threads(threads, || -> Result<Vec<Comparison>, LabError> {
             let settings = BuildSettings::default();
             let mut ours_build = Vec::new();
             let mut accel = SceneAccel::build(scene, &settings);
@@ -187,129 +194,3 @@ pub fn compare<R: Reference>(
     }
     Ok(rows)
 }
-
-#[cfg(feature = "embree")]
-mod embree_reference {
-    use super::*;
-    use crate::embree::EmbreeScene;
-    use crate::geom::Ray;
-    use crate::trace::Counters;
-
-    impl Tracer for EmbreeScene {
-        #[inline]
-        fn intersect<C: Counters>(&self, ray: &Ray, _: &mut C) -> Hit {
-            EmbreeScene::intersect(self, ray)
-        }
-        #[inline]
-        fn occluded<C: Counters>(&self, ray: &Ray, _: &mut C) -> bool {
-            EmbreeScene::occluded(self, ray)
-        }
-    }
-
-    impl Reference for EmbreeScene {
-        const NAME: &'static str = "Embree";
-        fn build(scene: &Scene, threads: usize) -> Result<(Self, f64), String> {
-            let built = EmbreeScene::build(scene, threads)?;
-            let seconds = built.build_seconds;
-            Ok((built, seconds))
-        }
-    }
-}
-
-#[cfg(feature = "obvhs")]
-mod obvhs_reference {
-    use super::*;
-    use crate::geom::Ray;
-    use crate::trace::Counters;
-    use glam::Vec3A;
-    use obvhs::cwbvh::builder::build_cwbvh_from_tris;
-    use obvhs::cwbvh::CwBvh;
-    use obvhs::ray::{Ray as ObvhsRay, RayHit};
-    use obvhs::triangle::Triangle as ObvhsTriangle;
-    use obvhs::BvhBuildParams;
-
-    /// obvhs's compressed wide BVH (CWBVH) over the world-space triangles, traced with
-    /// its own traversal and Möller–Trumbore test.
-    pub struct ObvhsScene {
-        bvh: CwBvh,
-        triangles: Vec<ObvhsTriangle>,
-        /// (instance, triangle) of each world triangle.
-        ids: Vec<(u32, u32)>,
-    }
-
-    fn to_obvhs(ray: &Ray) -> ObvhsRay {
-        ObvhsRay::new(
-            Vec3A::from(ray.origin),
-            Vec3A::from(ray.direction),
-            ray.t_min,
-            ray.t_max,
-        )
-    }
-
-    impl Tracer for ObvhsScene {
-        #[inline]
-        fn intersect<C: Counters>(&self, ray: &Ray, _: &mut C) -> Hit {
-            let mut hit = RayHit::none();
-            let query = to_obvhs(ray);
-            if !self.bvh.ray_traverse(query, &mut hit, |r, id| {
-                self.triangles[self.bvh.primitive_indices[id] as usize].intersect(r)
-            }) {
-                return Hit::MISS;
-            }
-            let (instance, triangle) =
-                self.ids[self.bvh.primitive_indices[hit.primitive_id as usize] as usize];
-            Hit {
-                t: hit.t,
-                u: 0.0,
-                v: 0.0,
-                triangle,
-                instance,
-                geometry: u32::MAX,
-            }
-        }
-        #[inline]
-        fn occluded<C: Counters>(&self, ray: &Ray, _: &mut C) -> bool {
-            !self.bvh.ray_traverse_miss(to_obvhs(ray), |r, id| {
-                self.triangles[self.bvh.primitive_indices[id] as usize].intersect(r)
-            })
-        }
-    }
-
-    impl Reference for ObvhsScene {
-        const NAME: &'static str = "obvhs";
-        fn build(scene: &Scene, _threads: usize) -> Result<(Self, f64), String> {
-            let mut triangles = Vec::new();
-            let mut ids = Vec::new();
-            for (i, instance) in scene.instances.iter().enumerate() {
-                let mesh = &scene.meshes[instance.mesh];
-                for t in 0..mesh.triangle_count() {
-                    let [v0, v1, v2] = mesh
-                        .corners(t)
-                        .map(|p| Vec3A::from(instance.transform.transform_point3(p)));
-                    if v0.is_finite() && v1.is_finite() && v2.is_finite() {
-                        triangles.push(ObvhsTriangle { v0, v1, v2 });
-                        ids.push((i as u32, t as u32));
-                    }
-                }
-            }
-            let start = std::time::Instant::now();
-            let bvh = build_cwbvh_from_tris(
-                &triangles,
-                BvhBuildParams::medium_build(),
-                &mut std::time::Duration::default(),
-            );
-            let seconds = start.elapsed().as_secs_f64();
-            Ok((
-                Self {
-                    bvh,
-                    triangles,
-                    ids,
-                },
-                seconds,
-            ))
-        }
-    }
-}
-
-#[cfg(feature = "obvhs")]
-pub use obvhs_reference::ObvhsScene;

@@ -2,10 +2,10 @@
 //! shared edges aside). Needs `--features embree` and libembree-dev; CI runs it.
 #![cfg(feature = "embree")]
 
-use rtmesh::embree::EmbreeScene;
-use rtmesh::trace::compare::{compare, CompareSettings};
 use rtmesh::trace::RayKind;
 use rtmesh::Scene;
+use rtmesh_lab::embree::EmbreeScene;
+use rtmesh_lab::reference::{compare, CompareSettings};
 
 fn assert_agrees(name: &str, scene: &Scene) {
     let settings = CompareSettings {

@@ -5,11 +5,18 @@
 //!
 //! Each scene instance becomes one Embree triangle geometry in world space (geometry id
 //! = instance id, primitive id = input triangle id), built with the default (medium)
-//! quality, so hits compare one to one with [`crate::trace::Hit`].
+//! quality, so hits compare one to one with [`rtmesh::trace::Hit`].
+//!
+//! The structs are declared by hand, and `layout.rs` holds them to `rtcore.h` by size,
+//! alignment and offset (bindgen would need libclang at build time for six structs).
 
-use crate::geom::Ray;
-use crate::mesh::Scene;
-use crate::trace::Hit;
+#[cfg(test)]
+mod layout;
+
+use crate::reference::Reference;
+use crate::LabError;
+use rtmesh::trace::{Counters, Hit, Tracer};
+use rtmesh::{Ray, Scene};
 use std::ffi::{c_char, c_void, CString};
 
 #[allow(non_camel_case_types)]
@@ -103,7 +110,7 @@ unsafe impl Sync for EmbreeScene {}
 
 impl EmbreeScene {
     /// Build `scene` with Embree using `threads` build threads (0 = all cores).
-    pub fn build(scene: &Scene, threads: usize) -> Result<Self, String> {
+    pub fn build(scene: &Scene, threads: usize) -> Result<Self, LabError> {
         let config =
             CString::new(format!("threads={threads},set_affinity=0,verbose=0")).expect("no NUL");
         // SAFETY: plain C calls on handles we created; every buffer Embree returns is
@@ -111,7 +118,7 @@ impl EmbreeScene {
         unsafe {
             let device = rtcNewDevice(config.as_ptr());
             if device.is_null() {
-                return Err("rtcNewDevice failed".into());
+                return Err(LabError::Embree("rtcNewDevice failed".into()));
             }
             let start = std::time::Instant::now();
             let handle = rtcNewScene(device);
@@ -138,7 +145,7 @@ impl EmbreeScene {
                     rtcReleaseGeometry(geometry);
                     rtcReleaseScene(handle);
                     rtcReleaseDevice(device);
-                    return Err("Embree could not allocate buffers".into());
+                    return Err(LabError::Embree("could not allocate buffers".into()));
                 }
                 let vertices = std::slice::from_raw_parts_mut(vertices, mesh.positions.len() * 3);
                 for (out, p) in vertices.chunks_exact_mut(3).zip(&mesh.positions) {
@@ -157,7 +164,7 @@ impl EmbreeScene {
             if error != 0 {
                 rtcReleaseScene(handle);
                 rtcReleaseDevice(device);
-                return Err(format!("Embree error {error} while building"));
+                return Err(LabError::Embree(format!("error {error} while building")));
             }
             Ok(Self {
                 device,
@@ -229,5 +236,25 @@ impl Drop for EmbreeScene {
             rtcReleaseScene(self.scene);
             rtcReleaseDevice(self.device);
         }
+    }
+}
+
+impl Tracer for EmbreeScene {
+    #[inline]
+    fn intersect<C: Counters>(&self, ray: &Ray, _: &mut C) -> Hit {
+        EmbreeScene::intersect(self, ray)
+    }
+    #[inline]
+    fn occluded<C: Counters>(&self, ray: &Ray, _: &mut C) -> bool {
+        EmbreeScene::occluded(self, ray)
+    }
+}
+
+impl Reference for EmbreeScene {
+    const NAME: &'static str = "Embree";
+    fn build(scene: &Scene, threads: usize) -> Result<(Self, f64), LabError> {
+        let built = EmbreeScene::build(scene, threads)?;
+        let seconds = built.build_seconds;
+        Ok((built, seconds))
     }
 }

@@ -1,0 +1,151 @@
+//! Option values shared by several subcommands: image sizes, packet shapes, ray kinds
+//! and intersectors as clap value enums (so `--help` lists them and a bad value gets
+//! clap's error), and the mesh argument.
+
+use anyhow::{Context, Result};
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+use rtmesh::trace::intersect::IntersectorKind;
+use rtmesh::trace::RayKind;
+use rtmesh::Scene;
+use std::path::Path;
+
+/// Which rays to trace.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Rays {
+    /// Camera rays, one per pixel, closest hit.
+    Primary,
+    /// One cosine-weighted bounce from each primary hit, closest hit.
+    Diffuse,
+    /// Occlusion rays from each primary hit toward a point light, any hit.
+    Shadow,
+}
+
+impl From<Rays> for RayKind {
+    fn from(rays: Rays) -> Self {
+        match rays {
+            Rays::Primary => RayKind::Primary,
+            Rays::Diffuse => RayKind::Diffuse,
+            Rays::Shadow => RayKind::Shadow,
+        }
+    }
+}
+
+/// The library's ray kinds of a list of `--rays` values.
+pub fn ray_kinds(rays: &[Rays]) -> Vec<RayKind> {
+    rays.iter().map(|&r| r.into()).collect()
+}
+
+/// A ray-triangle test.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Intersector {
+    /// Möller–Trumbore, edges computed per test.
+    Moller,
+    /// Möller–Trumbore with precomputed edges and normal.
+    MollerPre,
+    /// The packet paper's Möller: shared terms once per packet and triangle.
+    MollerPacket,
+    /// Plücker coordinates.
+    Pluecker,
+    /// Woop, Benthin and Wald's watertight test.
+    Watertight,
+}
+
+impl From<Intersector> for IntersectorKind {
+    fn from(kind: Intersector) -> Self {
+        match kind {
+            Intersector::Moller => IntersectorKind::Moller,
+            Intersector::MollerPre => IntersectorKind::MollerPre,
+            Intersector::MollerPacket => IntersectorKind::MollerPacket,
+            Intersector::Pluecker => IntersectorKind::Pluecker,
+            Intersector::Watertight => IntersectorKind::Watertight,
+        }
+    }
+}
+
+/// A square packet of neighbouring pixels' rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PacketShape {
+    /// One ray.
+    #[value(name = "1x1")]
+    One,
+    /// 2×2 rays.
+    #[value(name = "2x2")]
+    Two,
+    /// 4×4 rays.
+    #[value(name = "4x4")]
+    Four,
+    /// 8×8 rays.
+    #[value(name = "8x8")]
+    Eight,
+}
+
+impl PacketShape {
+    /// The side, in rays.
+    pub fn side(self) -> usize {
+        match self {
+            PacketShape::One => 1,
+            PacketShape::Two => 2,
+            PacketShape::Four => 4,
+            PacketShape::Eight => 8,
+        }
+    }
+}
+
+/// WIDTHxHEIGHT with sides 1..32768.
+pub fn parse_size(text: &str) -> Result<(usize, usize), String> {
+    let (w, h) = text
+        .split_once('x')
+        .ok_or("expected WIDTHxHEIGHT, e.g. 1024x768")?;
+    let parse = |v: &str| v.parse::<usize>().ok().filter(|&n| n > 0 && n <= 1 << 15);
+    match (parse(w), parse(h)) {
+        (Some(w), Some(h)) => Ok((w, h)),
+        _ => Err(format!(
+            "bad size '{text}': expected WIDTHxHEIGHT with sides 1..32768"
+        )),
+    }
+}
+
+/// WIDTHxHEIGHT, or 0x0 for "none".
+pub fn parse_size_or_zero(text: &str) -> Result<(usize, usize), String> {
+    if text == "0x0" {
+        Ok((0, 0))
+    } else {
+        parse_size(text)
+    }
+}
+
+/// Read a mesh file (with a progress bar for large files) or make a built-in scene
+/// (`builtin:NAME`).
+pub fn load(mesh: &str) -> Result<Scene> {
+    if let Some(name) = mesh.strip_prefix("builtin:") {
+        return rtmesh::scenes::by_name(name).with_context(|| {
+            format!(
+                "no built-in scene '{name}' (have: {})",
+                rtmesh::scenes::NAMES.join(", ")
+            )
+        });
+    }
+    let path = Path::new(mesh);
+    let size = std::fs::metadata(path).map(|m| m.len()).unwrap_or(0);
+    let bar = if size > 4 << 20 {
+        ProgressBar::new(size).with_style(
+            ProgressStyle::with_template("reading {msg} {bar:30} {bytes}/{total_bytes} ({eta})")
+                .expect("valid template"),
+        )
+    } else {
+        ProgressBar::hidden()
+    };
+    bar.set_message(mesh.to_owned());
+    let scene = rtmesh::io::read_with_progress(path, &mut |done, _| bar.set_position(done));
+    bar.finish_and_clear();
+    Ok(scene?)
+}
+
+/// The file name of a mesh argument (the argument itself for builtin:NAME), for tables.
+pub fn file_name(mesh: &str) -> &str {
+    Path::new(mesh)
+        .file_name()
+        .and_then(|n| n.to_str())
+        .unwrap_or(mesh)
+}

@@ -1,0 +1,55 @@
+//! The subcommands, one file each: its clap arguments, a `run` that calls the library
+//! and builds a typed report, and the text printing of that report.
+
+pub mod bench;
+pub mod convert;
+pub mod demo;
+pub mod info;
+pub mod lint;
+pub mod pair;
+pub mod render;
+pub mod repair;
+pub mod trace;
+
+use anyhow::Result;
+use clap::{Parser, Subcommand};
+
+/// Prepare triangle meshes for ray tracing and measure the gain.
+///
+/// MESH arguments are files (.obj, .ply, .gltf, .glb) or a built-in scene written
+/// `builtin:NAME` (blob, grid, cylinder, room). Every subcommand prints a human
+/// summary, or with --json a JSON report carrying `rtmesh_version` and `schema`.
+#[derive(Parser)]
+#[command(name = "rtmesh", version, about, long_about)]
+pub struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Info(info::Args),
+    Convert(convert::Args),
+    Pair(pair::Args),
+    Lint(lint::Args),
+    Repair(repair::Args),
+    Trace(trace::Args),
+    Render(render::Args),
+    Bench(bench::Args),
+    Demo(demo::Args),
+}
+
+/// Run the subcommand the command line names.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info(args) => info::run(args),
+        Command::Convert(args) => convert::run(args),
+        Command::Pair(args) => pair::run(args),
+        Command::Lint(args) => lint::run(args),
+        Command::Repair(args) => repair::run(args),
+        Command::Trace(args) => trace::run(args),
+        Command::Render(args) => render::run(args),
+        Command::Bench(args) => bench::run(args),
+        Command::Demo(args) => demo::run(args),
+    }
+}

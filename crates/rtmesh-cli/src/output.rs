@@ -1,0 +1,73 @@
+//! What goes out: JSON reports stamped with the version and schema, and progress bars
+//! on standard error.
+
+use anyhow::Result;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+/// The version of the JSON reports' layout: raised when a key changes meaning or goes.
+pub const SCHEMA: u32 = 1;
+
+/// A report as JSON prints it: the report's own keys, plus `rtmesh_version` and
+/// `schema`.
+#[derive(Serialize)]
+struct Stamped<'a, R: Serialize> {
+    rtmesh_version: &'static str,
+    schema: u32,
+    #[serde(flatten)]
+    report: &'a R,
+}
+
+fn stamped<R: Serialize>(report: &R) -> Stamped<'_, R> {
+    Stamped {
+        rtmesh_version: env!("CARGO_PKG_VERSION"),
+        schema: SCHEMA,
+        report,
+    }
+}
+
+/// Print `report` as one pretty JSON object with `--json`, else as `text` prints it.
+pub fn emit<R: Serialize>(report: &R, json: bool, text: impl FnOnce(&R)) -> Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(&stamped(report))?);
+    } else {
+        text(report);
+    }
+    Ok(())
+}
+
+/// Print a list of reports as one pretty JSON array, each stamped.
+pub fn emit_list<R: Serialize>(reports: &[R]) -> Result<()> {
+    let stamped: Vec<_> = reports.iter().map(stamped).collect();
+    println!("{}", serde_json::to_string_pretty(&stamped)?);
+    Ok(())
+}
+
+/// One stamped JSON line (the rows of `rtmesh bench`).
+pub fn json_line<R: Serialize>(row: &R) -> String {
+    serde_json::to_string(&stamped(row)).expect("reports are plain data")
+}
+
+/// A progress bar on standard error over `steps` steps of long work, with a message
+/// saying which; drawn only when standard error is a terminal, never into the output.
+pub fn steps_bar(steps: usize) -> Bar {
+    Bar(ProgressBar::new(steps as u64).with_style(
+        ProgressStyle::with_template("{msg} {bar:30} {pos}/{len} ({elapsed}, {eta} left)")
+            .expect("valid template"),
+    ))
+}
+
+/// A progress bar that the library's long work reports to.
+pub struct Bar(pub ProgressBar);
+
+impl rtmesh::progress::Progress for Bar {
+    fn message(&self, text: &str) {
+        self.0.set_message(text.to_owned());
+    }
+    fn add_steps(&self, steps: u64) {
+        self.0.inc_length(steps);
+    }
+    fn advance(&self, steps: u64) {
+        self.0.inc(steps);
+    }
+}

@@ -1,0 +1,504 @@
+//! The command-line contract of every subcommand, as scripts rely on it: the JSON keys
+//! documented (each report also carries `rtmesh_version` and `schema`), exit code 0 on
+//! success, 1 on a failed run with the message on standard error, 2 on a bad option
+//! value with clap's message listing the choices.
+
+use serde_json::Value;
+use std::process::{Command, Output};
+
+fn rtmesh(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_rtmesh"))
+        .args(args)
+        .output()
+        .expect("run rtmesh")
+}
+
+/// A scratch folder of this test process.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("rtmesh-contract-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Run `args`, which must succeed, and check that stdout's JSON object (or each of its
+/// lines, or the first element of its array) has exactly `keys` plus the stamp.
+fn assert_keys(args: &[&str], keys: &[&str]) -> Vec<Value> {
+    let out = rtmesh(args);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).unwrap();
+    let values: Vec<Value> = match serde_json::from_str::<Value>(&text) {
+        Ok(Value::Array(items)) => items,
+        Ok(value) => vec![value],
+        Err(_) => text
+            .lines()
+            .map(|line| serde_json::from_str(line).expect("one JSON object per line"))
+            .collect(),
+    };
+    assert!(!values.is_empty(), "{args:?} printed no JSON");
+    let mut expected: Vec<&str> = keys.to_vec();
+    expected.extend(["rtmesh_version", "schema"]);
+    expected.sort_unstable();
+    for value in &values {
+        let mut got: Vec<&str> = value
+            .as_object()
+            .expect("a JSON object")
+            .keys()
+            .map(String::as_str)
+            .collect();
+        got.sort_unstable();
+        assert_eq!(got, expected, "{args:?}");
+        assert_eq!(value["rtmesh_version"], env!("CARGO_PKG_VERSION"));
+        assert_eq!(value["schema"], 1);
+    }
+    values
+}
+
+const TRACE_RUN: [&str; 10] = [
+    "rays",
+    "seconds",
+    "mrays_per_s",
+    "box_tests_per_ray",
+    "tri_tests_per_ray",
+    "pair_tests_per_ray",
+    "nodes_per_ray",
+    "hits",
+    "hit_checksum",
+    "all_seconds",
+];
+
+#[test]
+fn info_convert_pair_lint_repair_keys() {
+    let dir = scratch("keys");
+    let info = [
+        "alpha_tested_triangles",
+        "boundary_edges",
+        "bounds",
+        "components",
+        "instanced_triangles",
+        "instances",
+        "manifold_edges",
+        "materials",
+        "meshes",
+        "non_finite_triangles",
+        "nonmanifold_edges",
+        "repeated_vertex_triangles",
+        "triangles",
+        "vertices",
+        "welded_vertices",
+        "zero_area_triangles",
+    ];
+    assert_keys(&["info", "builtin:grid", "--json"], &info);
+    let glb = dir.join("room.glb");
+    let glb = glb.to_str().unwrap();
+    assert_keys(
+        &["convert", "builtin:room", glb, "--json"],
+        &[
+            "input",
+            "output",
+            "triangles",
+            "vertices",
+            "merged_vertices",
+        ],
+    );
+    assert_keys(
+        &["pair", "builtin:grid", "--json"],
+        &[
+            "mesh",
+            "output",
+            "triangles",
+            "paired_triangles",
+            "pair_ratio",
+            "method",
+            "seconds",
+            "prescan_skipped",
+        ],
+    );
+    assert_keys(
+        &["lint", "builtin:cylinder", "--json"],
+        &[
+            "mesh",
+            "triangles",
+            "geometries",
+            "empty_space",
+            "aspect",
+            "findings",
+            "seconds",
+        ],
+    );
+    let repair = assert_keys(
+        &[
+            "repair",
+            "builtin:cylinder",
+            "--size",
+            "32x32",
+            "--runs",
+            "1",
+            "--json",
+        ],
+        &[
+            "mesh",
+            "output",
+            "trace",
+            "triangles_in",
+            "triangles_out",
+            "merged_vertices",
+            "removed_degenerate",
+            "made_inactive",
+            "removed_duplicates",
+            "split_edges",
+            "split_geometries",
+            "split_alpha_geometries",
+            "merged_groups",
+            "geometries_out",
+            "opaque_geometries",
+            "elongated_before",
+            "elongated_after",
+            "wasted_box_area_before",
+            "wasted_box_area_after",
+            "budget_reached",
+        ],
+    );
+    assert_eq!(repair[0]["trace"].as_array().map(Vec::len), Some(2));
+    let skipped = assert_keys(
+        &["repair", "builtin:cylinder", "--size", "0x0", "--json"],
+        &repair[0]
+            .as_object()
+            .unwrap()
+            .keys()
+            .filter(|k| *k != "rtmesh_version" && *k != "schema")
+            .map(String::as_str)
+            .collect::<Vec<_>>(),
+    );
+    assert!(skipped[0]["trace"].is_null());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn trace_render_demo_keys() {
+    let dir = scratch("trace");
+    let mut trace: Vec<&str> = TRACE_RUN.to_vec();
+    trace.extend([
+        "mesh",
+        "ray_kind",
+        "threads",
+        "packet",
+        "intersector",
+        "bvh",
+    ]);
+    for extra in [
+        &[][..],
+        &["--leaf", "pair"],
+        &["--rays", "shadow", "--packet", "4x4"],
+    ] {
+        let mut args = vec![
+            "trace",
+            "builtin:blob",
+            "--size",
+            "32x32",
+            "--runs",
+            "1",
+            "--json",
+        ];
+        args.extend(extra);
+        let value = &assert_keys(&args, &trace)[0];
+        let mut bvh: Vec<&str> = value["bvh"]
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(String::as_str)
+            .collect();
+        bvh.sort_unstable();
+        assert_eq!(
+            bvh,
+            [
+                "build_seconds",
+                "bytes",
+                "bytes_per_triangle",
+                "depth",
+                "leaves",
+                "nodes",
+                "sah_cost"
+            ]
+        );
+    }
+    let png = dir.join("blob.png");
+    let png = png.to_str().unwrap();
+    assert_keys(
+        &[
+            "render",
+            "builtin:blob",
+            "-o",
+            png,
+            "--size",
+            "32x24",
+            "--json",
+        ],
+        &["output", "width", "height", "shading"],
+    );
+    assert_keys(
+        &[
+            "render",
+            "builtin:blob",
+            "-o",
+            png,
+            "--size",
+            "32x24",
+            "--heatmap",
+            "tris",
+            "--json",
+        ],
+        &[
+            "output",
+            "width",
+            "height",
+            "heatmap",
+            "mean_per_ray",
+            "max_per_ray",
+            "scale_max",
+        ],
+    );
+    let demo = assert_keys(
+        &["demo", "--json"],
+        &[
+            "scene",
+            "info",
+            "bvh",
+            "trace",
+            "packets_8x8",
+            "sah_pair_ratio",
+            "lint",
+            "repair",
+        ],
+    );
+    assert_eq!(demo.len(), 4);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn bench_keys() {
+    let mut own: Vec<&str> = TRACE_RUN.to_vec();
+    own.extend(["mesh", "workload", "threads", "build_seconds"]);
+    let rows = assert_keys(
+        &[
+            "bench",
+            "trace",
+            "builtin:blob",
+            "--size",
+            "32x32",
+            "--runs",
+            "1",
+            "--builds",
+            "1",
+            "--threads",
+            "1",
+            "--json",
+        ],
+        &own,
+    );
+    assert_eq!(rows.len(), 2, "primary and diffuse");
+    let rows = assert_keys(
+        &[
+            "bench",
+            "pairing",
+            "builtin:blob",
+            "--size",
+            "32x32",
+            "--runs",
+            "1",
+            "--json",
+        ],
+        &[
+            "mesh",
+            "method",
+            "workload",
+            "rays",
+            "threads",
+            "pair_seconds",
+            "pair_ratio",
+            "box_tests_per_ray",
+            "tri_tests_per_ray",
+            "pair_tests_per_ray",
+            "mrays_per_s",
+            "delta_box_percent",
+            "delta_tests_percent",
+            "delta_mrays_percent",
+            "same_hits",
+        ],
+    );
+    assert_eq!(
+        rows.len(),
+        2 * 4,
+        "unpaired, window:2, sah, sah-max on two workloads"
+    );
+    let rows = assert_keys(
+        &[
+            "bench",
+            "packets",
+            "builtin:blob",
+            "--size",
+            "32x32",
+            "--runs",
+            "1",
+            "--packets",
+            "2x2",
+            "--json",
+        ],
+        &[
+            "mesh",
+            "workload",
+            "traversal",
+            "rays",
+            "threads",
+            "seconds",
+            "mrays_per_s",
+            "box_tests_per_ray",
+            "tri_tests_per_ray",
+            "speedup",
+            "same_hits_checksum",
+        ],
+    );
+    assert_eq!(rows.len(), 3 * 2);
+    let rows = assert_keys(
+        &[
+            "bench",
+            "intersect",
+            "builtin:blob",
+            "--size",
+            "8x8",
+            "--runs",
+            "1",
+            "--intersectors",
+            "moller,watertight",
+            "--json",
+        ],
+        &[
+            "mesh",
+            "triangles",
+            "rays",
+            "packet",
+            "intersector",
+            "simd",
+            "threads",
+            "seconds",
+            "mrays_per_s",
+            "mtests_per_s",
+            "speedup_over_scalar_moller_pre",
+            "same_hits",
+        ],
+    );
+    assert!(rows.len() >= 2 * 2);
+}
+
+/// Exit code 2 and clap's message, which names the option, the bad value and (for
+/// enumerated options) the choices.
+fn assert_rejected(args: &[&str], says: &[&str]) {
+    let out = rtmesh(args);
+    assert_eq!(out.status.code(), Some(2), "{args:?}");
+    assert!(out.stdout.is_empty());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    for text in says {
+        assert!(stderr.contains(text), "{args:?}: {stderr}");
+    }
+}
+
+#[test]
+fn bad_option_values_get_clap_errors() {
+    assert_rejected(
+        &["trace", "builtin:blob", "--rays", "sideways"],
+        &["sideways", "primary, diffuse, shadow"],
+    );
+    assert_rejected(
+        &["trace", "builtin:blob", "--leaf", "quad"],
+        &["quad", "tri, pair"],
+    );
+    assert_rejected(
+        &["trace", "builtin:blob", "--packet", "3x3"],
+        &["3x3", "auto, none, 2x2, 4x4, 8x8"],
+    );
+    assert_rejected(
+        &["trace", "builtin:blob", "--intersector", "fast"],
+        &["fast", "moller-packet"],
+    );
+    assert_rejected(
+        &["trace", "builtin:blob", "--size", "0x10"],
+        &["0x10", "WIDTHxHEIGHT"],
+    );
+    assert_rejected(
+        &[
+            "render",
+            "builtin:blob",
+            "-o",
+            "x.png",
+            "--heatmap",
+            "nodes",
+        ],
+        &["nodes", "boxes, tris"],
+    );
+    assert_rejected(
+        &["pair", "builtin:grid", "--method", "window:0"],
+        &["window:N"],
+    );
+    assert_rejected(
+        &["bench", "trace", "builtin:blob", "--vs", "optix"],
+        &["optix", "embree, obvhs"],
+    );
+    assert_rejected(
+        &["bench", "packets", "builtin:blob", "--packets", "16x16"],
+        &["16x16", "1x1, 2x2, 4x4, 8x8"],
+    );
+    assert_rejected(
+        &["bench", "pairing", "builtin:blob", "--rays", "all"],
+        &["all"],
+    );
+    assert_rejected(
+        &["repair", "builtin:blob", "--force-split"],
+        &["--split-elongated"],
+    );
+    assert_rejected(&["info"], &["<MESH>"]);
+    assert_rejected(&["frobnicate"], &["frobnicate"]);
+}
+
+#[test]
+fn failed_runs_exit_one_with_the_reason() {
+    for args in [
+        &["info", "builtin:nothing"][..],
+        &["lint", "/nonexistent/mesh.obj"],
+        &["pair", "/nonexistent/mesh.ply"],
+        &["repair", "/nonexistent/mesh.glb"],
+        &["trace", "/nonexistent/mesh.gltf"],
+        &["render", "/nonexistent/mesh.obj", "-o", "x.png"],
+        &["convert", "/nonexistent/mesh.obj", "x.ply"],
+        &["bench", "trace", "/nonexistent/mesh.obj"],
+        &["trace", "builtin:blob", "--leaf", "pair", "--packet", "4x4"],
+    ] {
+        let out = rtmesh(args);
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(stderr.starts_with("error: "), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("nonexistent")
+                || stderr.contains("nothing")
+                || stderr.contains("--leaf tri"),
+            "{args:?}: {stderr}"
+        );
+    }
+    #[cfg(not(feature = "embree"))]
+    {
+        let out = rtmesh(&[
+            "bench",
+            "trace",
+            "builtin:blob",
+            "--vs",
+            "embree",
+            "--size",
+            "8x8",
+        ]);
+        assert_eq!(out.status.code(), Some(1));
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--features embree"));
+    }
+}
