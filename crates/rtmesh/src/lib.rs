@@ -7,6 +7,7 @@
 //! Mrays/s on deterministic workloads; [`render`] draws images and cost heatmaps.
 #![warn(missing_docs)]
 
+pub mod analysis;
 pub mod bvh;
 pub mod data;
 pub mod geom;

@@ -25,8 +25,8 @@
 //! layers, folds), each of which every ray through them tests. Cost: one BVH build
 //! and O(crossings) per ray.
 
-use crate::geom::{triangle_area, Aabb};
-use crate::mesh::{connected_components, validate, weld_exact, EdgeAdjacency, Scene, TriMesh};
+use crate::analysis::{overlapping_instances, proposed_grouping, Pieces, TriangleShape};
+use crate::mesh::{validate, Scene, TriMesh};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -135,59 +135,6 @@ pub struct LintReport {
     pub seconds: f64,
 }
 
-/// The shape of one triangle as a BVH sees it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TriangleShape {
-    /// Area.
-    pub area: f32,
-    /// `1 − min(1, 2·area / largest box face)`.
-    pub empty_space: f32,
-    /// Longest edge² / (2·area).
-    pub aspect: f32,
-    /// Half the surface area of the triangle's box (its SAH weight).
-    pub box_half_area: f32,
-}
-
-impl TriangleShape {
-    /// The shape of the triangle with corners `c`.
-    pub fn of(c: [glam::Vec3; 3]) -> Self {
-        let area = triangle_area(c[0], c[1], c[2]);
-        let extent = Aabb::from_points(&c).extent();
-        let largest_face = (extent.x * extent.y)
-            .max(extent.y * extent.z)
-            .max(extent.z * extent.x);
-        let longest = (0..3)
-            .map(|k| (c[(k + 1) % 3] - c[k]).length_squared())
-            .fold(0.0f32, f32::max);
-        let empty_space = if largest_face > 0.0 {
-            1.0 - (2.0 * area / largest_face).min(1.0)
-        } else {
-            // A triangle in a line has a flat box: all empty unless it is a point.
-            if longest > 0.0 {
-                1.0
-            } else {
-                0.0
-            }
-        };
-        Self {
-            area,
-            empty_space,
-            aspect: if area > 0.0 {
-                longest / (2.0 * area)
-            } else {
-                f32::INFINITY
-            },
-            box_half_area: extent.x * extent.y + extent.y * extent.z + extent.z * extent.x,
-        }
-    }
-
-    /// Whether `settings` call this triangle elongated.
-    pub fn is_elongated(&self, settings: &LintSettings) -> bool {
-        self.area > 0.0
-            && (self.empty_space >= settings.empty_space || self.aspect >= settings.aspect)
-    }
-}
-
 /// The worst `n` of `ids` by `score` (largest first).
 fn worst_by(mut ids: Vec<u32>, n: usize, score: impl Fn(u32) -> f32) -> Vec<u32> {
     ids.sort_by(|&a, &b| score(b).total_cmp(&score(a)).then(a.cmp(&b)));
@@ -254,7 +201,10 @@ fn lint_triangles(
     findings: &mut Vec<Finding>,
 ) {
     let elongated: Vec<u32> = (0..shapes.len() as u32)
-        .filter(|&t| shapes[t as usize].is_some_and(|s| s.is_elongated(settings)))
+        .filter(|&t| {
+            shapes[t as usize]
+                .is_some_and(|s| s.is_elongated(settings.empty_space, settings.aspect))
+        })
         .collect();
     if elongated.is_empty() {
         return;
@@ -726,45 +676,6 @@ fn lint_alpha(g: usize, mesh: &TriMesh, settings: &LintSettings, findings: &mut 
     });
 }
 
-/// The connected pieces of a geometry (by edges, after welding identical positions):
-/// the piece of every triangle, each piece's box, and the pieces' summed box area over
-/// the geometry's box area (`coverage`: below ½ the pieces are far apart).
-#[derive(Clone, Debug)]
-pub struct Pieces {
-    /// Piece id per triangle (`u32::MAX` for triangles without an edge).
-    pub of_triangle: Vec<u32>,
-    /// Box per piece.
-    pub boxes: Vec<Aabb>,
-    /// Σ piece box half-areas / geometry box half-area.
-    pub coverage: f32,
-}
-
-impl Pieces {
-    /// The pieces of `mesh`.
-    pub fn of(mesh: &TriMesh) -> Self {
-        let welded = weld_exact(mesh).mesh;
-        let (of_triangle, count) = connected_components(&EdgeAdjacency::build(&welded));
-        let mut boxes = vec![Aabb::EMPTY; count];
-        for (t, &c) in of_triangle.iter().enumerate() {
-            if let (true, Some(corners)) = ((c as usize) < count, welded.finite_corners(t)) {
-                boxes[c as usize] = boxes[c as usize].union(Aabb::from_points(&corners));
-            }
-        }
-        let whole = boxes.iter().fold(Aabb::EMPTY, |b, &p| b.union(p));
-        let covered: f32 = boxes.iter().map(Aabb::half_area).sum();
-        Self {
-            of_triangle,
-            coverage: covered / whole.half_area().max(f32::MIN_POSITIVE),
-            boxes,
-        }
-    }
-
-    /// More than one piece, covering under half the geometry's box area.
-    pub fn scattered(&self) -> bool {
-        self.boxes.len() > 1 && self.coverage < 0.5
-    }
-}
-
 /// Connected pieces of a geometry and whether they leave its box mostly empty.
 fn lint_pieces(g: usize, pieces: &Pieces, settings: &LintSettings, findings: &mut Vec<Finding>) {
     if pieces.scattered() {
@@ -824,7 +735,7 @@ fn lint_overlaps(scene: &Scene, settings: &LintSettings, findings: &mut Vec<Find
 }
 
 /// The two-level SAH cost of the scene as it is and as the proposed grouping
-/// ([`crate::repair::proposed_grouping`]) would make it, added to the grouping
+/// ([`proposed_grouping`]) would make it, added to the grouping
 /// findings as `two_level_sah_before` and `two_level_sah_after`. Builds the BVHs of
 /// both (only for scenes with such findings).
 fn estimate_grouping(scene: &Scene, pieces: &[Pieces], findings: &mut [Finding]) {
@@ -833,7 +744,7 @@ fn estimate_grouping(scene: &Scene, pieces: &[Pieces], findings: &mut [Finding])
     if !findings.iter().any(is_grouping) {
         return;
     }
-    let Some(proposed) = crate::repair::proposed_grouping(scene, pieces) else {
+    let Some(proposed) = proposed_grouping(scene, pieces) else {
         return;
     };
     let cost = |scene: &Scene| {
@@ -847,45 +758,16 @@ fn estimate_grouping(scene: &Scene, pieces: &[Pieces], findings: &mut [Finding])
     }
 }
 
-/// Pairs of instances `(a, b, overlap)`, `a < b`, in order, whose world boxes overlap
-/// by half or more: `overlap` = half-area of the boxes' intersection over the smaller
-/// box's. Sort and sweep: the boxes sorted along the axis where their centres spread
-/// most, each compared with those that start before it ends on that axis. O(n log n +
-/// the pairs that overlap on that axis).
-pub fn overlapping_instances(scene: &Scene) -> Vec<(usize, usize, f32)> {
-    let mesh_bounds: Vec<Aabb> = scene.meshes.iter().map(TriMesh::bounds).collect();
-    let boxes: Vec<Aabb> = scene
-        .instances
-        .iter()
-        .map(|i| mesh_bounds[i.mesh].transformed(&i.transform))
-        .collect();
-    // A mesh with no finite corner has an empty box, which overlaps nothing.
-    let mut order: Vec<usize> = (0..boxes.len()).filter(|&i| !boxes[i].is_empty()).collect();
-    let centres = order
-        .iter()
-        .fold(Aabb::EMPTY, |c, &i| c.grown_by_point(boxes[i].center()));
-    let axis = centres.extent().max_position();
-    order.sort_unstable_by(|&a, &b| boxes[a].min[axis].total_cmp(&boxes[b].min[axis]));
-    let mut pairs = Vec::new();
-    for (k, &a) in order.iter().enumerate() {
-        let reach = boxes[a].max[axis];
-        for &b in order[k + 1..]
-            .iter()
-            .take_while(|&&b| boxes[b].min[axis] <= reach)
-        {
-            let shared = boxes[a].intersection(boxes[b]);
-            if shared.is_empty() {
-                continue;
-            }
-            let smaller = boxes[a].half_area().min(boxes[b].half_area());
-            let overlap = shared.half_area() / smaller.max(f32::MIN_POSITIVE);
-            if overlap >= 0.5 {
-                pairs.push((a.min(b), a.max(b), overlap));
-            }
-        }
-    }
-    pairs.sort_unstable_by_key(|&(a, b, _)| (a, b));
-    pairs
+/// A pose given to [`lint_deforming`] whose topology is not the rest pose's.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("pose {pose} does not have the rest pose's topology ({triangles} triangles, {vertices} vertices)")]
+pub struct PoseMismatch {
+    /// The pose, counted from 1.
+    pub pose: usize,
+    /// The rest pose's triangles.
+    pub triangles: usize,
+    /// The rest pose's vertices.
+    pub vertices: usize,
 }
 
 /// Rebuild or refit, for a deforming mesh: `rest` and each of `poses` must have the
@@ -893,7 +775,7 @@ pub fn overlapping_instances(scene: &Scene) -> Vec<(usize, usize, f32)> {
 /// rest pose, refits it to each pose, and compares its SAH cost with a BVH rebuilt on
 /// that pose. Scenes are flattened to one geometry. Returns the finding, or an error
 /// naming the pose whose topology differs.
-pub fn lint_deforming(rest: &Scene, poses: &[Scene]) -> Result<Finding, String> {
+pub fn lint_deforming(rest: &Scene, poses: &[Scene]) -> Result<Finding, PoseMismatch> {
     use crate::bvh::BuildSettings;
     use crate::trace::SceneAccel;
     let rest = Scene::from_mesh(rest.flatten());
@@ -904,12 +786,11 @@ pub fn lint_deforming(rest: &Scene, poses: &[Scene]) -> Result<Finding, String> 
         if pose.meshes[0].triangles != rest.meshes[0].triangles
             || pose.meshes[0].positions.len() != rest.meshes[0].positions.len()
         {
-            return Err(format!(
-                "pose {} does not have the rest pose's topology ({} triangles, {} vertices)",
-                k + 1,
-                rest.meshes[0].triangle_count(),
-                rest.meshes[0].positions.len()
-            ));
+            return Err(PoseMismatch {
+                pose: k + 1,
+                triangles: rest.meshes[0].triangle_count(),
+                vertices: rest.meshes[0].positions.len(),
+            });
         }
         accel.refit(&pose);
         let refit = accel.stats().sah_cost;

@@ -302,8 +302,8 @@ impl<P: Primitive> Bvh<P> {
 
     /// Check every invariant: child boxes contain their subtrees' primitives, nodes come
     /// after their parents, every primitive is in exactly one leaf, leaves are 1..=15.
-    /// Returns a description of the first violation.
-    pub fn validate(&self) -> Result<(), String> {
+    /// Returns the first violation.
+    pub fn validate(&self) -> Result<(), InvalidBvh> {
         let mut seen = vec![false; self.primitives.len()];
         let mut node_seen = vec![false; self.nodes.len()];
         let mut stack = vec![(self.root, None::<Aabb>, None::<u32>)];
@@ -312,10 +312,10 @@ impl<P: Primitive> Bvh<P> {
                 Child::Empty => continue,
                 Child::Inner(i) => {
                     if i as usize >= self.nodes.len() || node_seen[i as usize] {
-                        return Err(format!("node {i} out of range or reached twice"));
+                        return Err(InvalidBvh::NodeReachedTwice(i));
                     }
                     if parent.is_some_and(|p| p >= i) {
-                        return Err(format!("node {i} stored before its parent"));
+                        return Err(InvalidBvh::NodeBeforeParent(i));
                     }
                     node_seen[i as usize] = true;
                     let node = &self.nodes[i as usize];
@@ -326,11 +326,11 @@ impl<P: Primitive> Bvh<P> {
                 }
                 Child::Leaf { first, count } => {
                     if count == 0 || (first + count) as usize > self.primitives.len() {
-                        return Err(format!("leaf {first}+{count} is empty or out of range"));
+                        return Err(InvalidBvh::BadLeaf { first, count });
                     }
                     for p in first..first + count {
                         if std::mem::replace(&mut seen[p as usize], true) {
-                            return Err(format!("primitive {p} in two leaves"));
+                            return Err(InvalidBvh::PrimitiveInTwoLeaves(p));
                         }
                     }
                     self.leaf_bounds(first, count)
@@ -338,18 +338,52 @@ impl<P: Primitive> Bvh<P> {
             };
             if let Some(b) = bounds {
                 if b.union(subtree) != b {
-                    return Err(format!(
-                        "child box {b:?} does not contain its subtree {subtree:?}"
-                    ));
+                    return Err(InvalidBvh::LooseBox { child: b, subtree });
                 }
             }
         }
         if let Some(p) = seen.iter().position(|&s| !s) {
-            return Err(format!("primitive {p} in no leaf"));
+            return Err(InvalidBvh::PrimitiveInNoLeaf(p));
         }
         if let Some(n) = node_seen.iter().position(|&s| !s) {
-            return Err(format!("node {n} unreachable"));
+            return Err(InvalidBvh::Unreachable(n));
         }
         Ok(())
     }
+}
+
+/// A broken invariant of a [`Bvh`], as [`Bvh::validate`] finds it.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum InvalidBvh {
+    /// An inner node index past the nodes, or reached from two parents.
+    #[error("node {0} out of range or reached twice")]
+    NodeReachedTwice(u32),
+    /// An inner node stored before its parent.
+    #[error("node {0} stored before its parent")]
+    NodeBeforeParent(u32),
+    /// A leaf with no primitive, or past the primitives.
+    #[error("leaf {first}+{count} is empty or out of range")]
+    BadLeaf {
+        /// The leaf's first primitive.
+        first: u32,
+        /// Its primitive count.
+        count: u32,
+    },
+    /// A primitive in two leaves.
+    #[error("primitive {0} in two leaves")]
+    PrimitiveInTwoLeaves(u32),
+    /// A child box that does not contain its subtree.
+    #[error("child box {child:?} does not contain its subtree {subtree:?}")]
+    LooseBox {
+        /// The box stored for the child.
+        child: Aabb,
+        /// The box of the child's subtree.
+        subtree: Aabb,
+    },
+    /// A primitive in no leaf.
+    #[error("primitive {0} in no leaf")]
+    PrimitiveInNoLeaf(usize),
+    /// An inner node no path from the root reaches.
+    #[error("node {0} unreachable")]
+    Unreachable(usize),
 }

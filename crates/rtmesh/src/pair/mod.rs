@@ -70,9 +70,16 @@ impl fmt::Display for PairMethod {
     }
 }
 
+/// A pairing method's name that [`PairMethod`]'s `FromStr` does not know.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "unknown pairing method `{0}`: expected sah, sah-compressed, window:N (N ≥ 1), sah-max or max"
+)]
+pub struct UnknownPairMethod(pub String);
+
 impl FromStr for PairMethod {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = UnknownPairMethod;
+    fn from_str(s: &str) -> Result<Self, UnknownPairMethod> {
         match s {
             "sah" => Ok(PairMethod::Sah),
             "sah-compressed" => Ok(PairMethod::SahCompressed),
@@ -81,10 +88,7 @@ impl FromStr for PairMethod {
             "window" => Ok(PairMethod::Window(2)),
             _ => match s.strip_prefix("window:").map(str::parse::<usize>) {
                 Some(Ok(n)) if n >= 1 => Ok(PairMethod::Window(n)),
-                _ => Err(format!(
-                    "unknown pairing method `{s}`: expected sah, sah-compressed, window:N \
-                     (N ≥ 1), sah-max or max"
-                )),
+                _ => Err(UnknownPairMethod(s.to_owned())),
             },
         }
     }

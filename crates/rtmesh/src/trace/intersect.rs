@@ -40,7 +40,6 @@ use crate::simd::{dispatch, Isa, Kernel, Lanes, V3};
 use glam::Vec3;
 use std::fmt;
 use std::ops::{Add, Sub};
-use std::str::FromStr;
 
 /// The intersector names accepted on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -104,18 +103,6 @@ impl IntersectorKind {
 impl fmt::Display for IntersectorKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         f.write_str(self.name())
-    }
-}
-
-impl FromStr for IntersectorKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| {
-                format!("unknown intersector '{s}' (moller, moller-pre, moller-packet, pluecker, watertight)")
-            })
     }
 }
 

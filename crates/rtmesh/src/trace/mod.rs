@@ -28,6 +28,9 @@ use crate::geom::Ray;
 use glam::Vec3;
 use serde::Serialize;
 
+/// Side of the square pixel tiles rays are generated and traced in.
+pub const TILE: usize = 8;
+
 /// The closest (or any) hit of a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {

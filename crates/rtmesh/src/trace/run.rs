@@ -3,8 +3,7 @@
 
 use super::intersect::Intersector;
 use super::packet::PacketBuffer;
-use super::workload::TILE;
-use super::{Counters, Hit, SceneAccel, Tracer};
+use super::{Counters, Hit, SceneAccel, Tracer, TILE};
 use crate::geom::Ray;
 use rayon::prelude::*;
 

@@ -14,16 +14,12 @@
 //! misses have no secondary ray.
 
 use super::run::trace_closest;
-use super::{Hit, NoCounters, Tracer};
+use super::{Hit, NoCounters, Tracer, TILE};
 use crate::geom::{Aabb, Ray};
 use crate::mesh::Scene;
 use crate::random::SplitMix64;
 use glam::Vec3;
 use rayon::prelude::*;
-use std::str::FromStr;
-
-/// Side of the square pixel tiles rays are generated and traced in.
-pub const TILE: usize = 8;
 
 /// Which rays to trace.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -43,18 +39,6 @@ impl RayKind {
             RayKind::Primary => "primary",
             RayKind::Diffuse => "diffuse",
             RayKind::Shadow => "shadow",
-        }
-    }
-}
-
-impl FromStr for RayKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "primary" => Ok(Self::Primary),
-            "diffuse" => Ok(Self::Diffuse),
-            "shadow" => Ok(Self::Shadow),
-            _ => Err(format!("unknown ray kind '{s}' (primary, diffuse, shadow)")),
         }
     }
 }
