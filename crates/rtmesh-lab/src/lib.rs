@@ -1,8 +1,9 @@
 //! rtmesh's measuring lab: what compares rtmesh with other tracers and redoes the
 //! papers' experiments, kept out of the core library so that it carries no FFI.
 //!
-//! - [`reference`]: the same rays through rtmesh and another tracer ([`embree`] with
-//!   the `embree` feature, [`obvhs`] with the `obvhs` feature), side by side;
+//! - [`reference`](mod@reference): the same rays through rtmesh and another tracer
+//!   (`embree` with the `embree` feature, `obvhs` with the `obvhs` feature), side by
+//!   side;
 //! - [`harness`]: timing by alternating rounds and medians;
 //! - [`tables`]: the rows of `rtmesh bench` (trace, pairing, packets, and the packet
 //!   paper's experiment without a BVH).

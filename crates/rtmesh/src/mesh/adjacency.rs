@@ -4,8 +4,7 @@
 //! Built by a counting sort on the smaller vertex (a CSR table of half-edges per vertex),
 //! then a tiny insertion sort of each vertex's few half-edges on the larger vertex:
 //! O(T + V) time, three passes over 3T half-edges, no hashing and no per-edge allocation.
-//! On the 871k-triangle dragon this takes tens of milliseconds on one core (see
-//! `benches/adjacency.rs`).
+//! Its speed is measured by `benches/adjacency.rs`.
 //!
 //! Boundary edges have one triangle, manifold edges two, non-manifold edges three or
 //! more. Triangles that repeat a vertex (`[a, a, b]` is a line that would touch edge

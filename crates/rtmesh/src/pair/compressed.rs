@@ -165,7 +165,7 @@ impl Quantiser {
             / 2)
         .min(8);
         // A plain loop per chunk: the pool's per-element fold closure was not always
-        // inlined (a call per vertex, 4 ms on the dragon).
+        // inlined (a call per vertex).
         let bounds = mesh
             .positions
             .par_chunks(1 << 14)
@@ -236,8 +236,7 @@ fn signature([x, y, z]: EdgeKey) -> u32 {
 
 /// Half-edges per block of the twin search, roughly: a cell of space. A block's
 /// half-edges (8 bytes each) stay in the core's L2 cache; smaller blocks mean more of
-/// them, each a stream that the write-out by block keeps open (side by side on the
-/// dragon, one core: 2¹¹ took 5% longer in all).
+/// them, each a stream that the write-out by block keeps open (2¹¹ was slower).
 const BLOCK_HALF_EDGES: usize = 1 << 13;
 
 /// The twin search of position-only input: blocks by the cell of space the edge's
@@ -257,8 +256,7 @@ impl<'m> PositionKeys<'m> {
     /// them, with [`Quantiser::rank_and_count_avx512`] when `avx512` (which the CPU
     /// must have). The keys are not kept: the write-out computes them again, as that
     /// costs less than writing 12 bytes a half-edge to fresh memory and reading them
-    /// back (side by side on the dragon, one core, Zen 4, medians of 12 runs: 74 ms
-    /// in all, not 81).
+    /// back.
     pub(super) fn new(mesh: &'m TriMesh, avx512: bool) -> (Self, RankedSides) {
         let quantiser = Quantiser::new(mesh);
         let active = ActiveTriangles::new(mesh);
@@ -315,9 +313,8 @@ impl EdgeKeys for PositionKeys<'_> {
     }
 
     /// A power of two, a run for every 2–4 half-edges: in the scalar search's 8-wide
-    /// window, fewer runs cost less than the narrower window they would allow (side
-    /// by side on the dragon, one run per 1–2 half-edges in a 4-wide window took
-    /// 6–8% longer in all). The block kernel's window is as fast with one run per
+    /// window, fewer runs cost less than the narrower window they would allow (one run
+    /// per 1–2 half-edges in a 4-wide window was slower). The block kernel's window is as fast with one run per
     /// 2–4 as per 4–8, and runs longer than 16, which it declines, are rarer.
     fn runs(&self, _: usize, len: usize) -> usize {
         (len / 4).next_power_of_two()
@@ -350,11 +347,7 @@ impl EdgeKeys for PositionKeys<'_> {
         couple_key(self.key(h), rank)
     }
 
-    /// Sixteen triangles at a time: their keys computed again
-    /// ([`Quantiser::group_keys_avx512`]), and from them their blocks and signatures,
-    /// then, block by block ([`for_each_block_avx512`]), each side's half-edges in the
-    /// block compressed to the block's cursor ([`append_half_edges_avx512`]). None past
-    /// [`MAX_GATHER_VERTICES`] vertices.
+    /// The kernel is [`avx512::write_out_avx512`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,popcnt")]
     unsafe fn write_out_avx512(
@@ -368,15 +361,7 @@ impl EdgeKeys for PositionKeys<'_> {
         unsafe { avx512::write_out_avx512(self, first, ranks, cursor, destination) }
     }
 
-    /// The whole block, 16 half-edges at a time, as the indexed kernel does it, on
-    /// the signatures ([`window_matches_avx512`] compares words): a half-edge with one
-    /// match may have a twin; one with more matches is declined. Each group's
-    /// corners' vertices and links are gathered once, and its half-edges' matches'
-    /// taken from those of its group and the groups either side. A match is a
-    /// couple when of a different triangle and joining the same corners opposite
-    /// ways ([`EdgeKeys::may_couple`]: one vertex each, or where not, one position,
-    /// gathered): then it has the same key, and is the twin. Each couple writes its
-    /// own slot with its twin's link, in one scatter for 16 half-edges.
+    /// The kernel is [`avx512::couple_block_avx512`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,popcnt")]
     unsafe fn couple_block_avx512(
@@ -392,11 +377,9 @@ impl EdgeKeys for PositionKeys<'_> {
 
     /// The triangle and its rank byte at stage 0, its corners at stage 1 (the triangle
     /// is in cache by then) when they will be read: the block's corner checks then find
-    /// them there, where their misses were the twin search's largest cost. On the
-    /// dragon, one core, the runs' search took 34 ms as a soup (63 without prefetches)
-    /// and, welded, 27 with the triangles prefetched (35 without; prefetching the
-    /// corners too cost 6 ms more than it saved). The rank bytes, which the block kernel
-    /// gathers: 79.6 against 81.8 ms in all (side by side, min of eight).
+    /// them there, where their misses were the twin search's largest cost (on welded
+    /// input, prefetching the corners too cost more than it saved). The rank bytes are
+    /// fetched too: the block kernel gathers them.
     #[inline]
     fn prefetch_couple(&self, h: &PositionHalfEdge, stage: u32, ranks: &[u8]) {
         let [t, k] = h.triangle_side();
@@ -420,9 +403,8 @@ impl EdgeKeys for PositionKeys<'_> {
 
 /// A half-edge and its key's [`signature`] (two words in this order, which the AVX-512
 /// kernels store and load): 8 bytes where the key would make 16, and no read of the
-/// key when the blocks are searched. Side by side on the dragon, one core, Zen 4,
-/// medians of 12 runs: 81 ms in all, not 87 (with the keys still kept, where the
-/// blocks' pass read each half-edge's key back by id).
+/// key when the blocks are searched (keeping the keys, and reading each half-edge's key
+/// back by id in the blocks' pass, was slower).
 #[derive(Clone, Copy, Default)]
 #[repr(C)]
 pub(super) struct PositionHalfEdge {

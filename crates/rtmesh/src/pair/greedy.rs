@@ -274,17 +274,7 @@ impl EdgeKeys for VertexKeys<'_> {
         (a.other ^ b.other) & VertexHalfEdge::FORWARD != 0
     }
 
-    /// The whole block, 16 half-edges at a time. Each half-edge's edge is one word:
-    /// its larger vertex above its run (its smaller vertex in the block), so that two
-    /// edges of a block share a word only when their larger vertices differ by a
-    /// multiple of 2²⁰. Each word is compared with its neighbours'
-    /// ([`window_matches_avx512`]); a half-edge with one match of the same larger
-    /// vertex has a twin. Twins that run opposite ways ([`EdgeKeys::may_couple`]) are
-    /// couples: each writes its own slot (`3t + rank` is `link - t`) with its twin's
-    /// link, in one scatter for 16 half-edges. A half-edge with more matches, or one
-    /// of another larger vertex, is declined. On the dragon's 437k runs (one core)
-    /// this takes 5.3 ms where a kernel per run, with `vpconflictd` (about 20 cycles)
-    /// and two scatters a run, took 10.
+    /// The kernel is [`avx512::couple_block_avx512`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,popcnt")]
     unsafe fn couple_block_avx512(
@@ -298,11 +288,7 @@ impl EdgeKeys for VertexKeys<'_> {
         unsafe { avx512::couple_block_avx512(sorted, links, words, declined) }
     }
 
-    /// Sixteen triangles at a time: their half-edges built lane-wise, one side at a
-    /// time, and interleaved into records; then, block by block
-    /// ([`for_each_block_avx512`]: mostly one or two), each side's records in the
-    /// block compressed to the block's cursor. On the dragon, one core: 5 ms, where
-    /// the scalar pass (three cursors a triangle, in a chain) takes 9.
+    /// The kernel is [`avx512::write_out_avx512`].
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx512f,popcnt,bmi2")]
     unsafe fn write_out_avx512(

@@ -19,7 +19,7 @@
 //! Each free triangle is searched once, by breadth-first search that shrinks odd
 //! cycles into blossoms through a union-find over the blossoms' bases, at the cost of
 //! the cycle (relabelling every vertex the search had touched made long searches
-//! quadratic: `max` took 43 s on the dragon, now 0.3 s). The per-search state lives in
+//! quadratic). The per-search state lives in
 //! arrays stamped by search, so a search costs what it touches, not O(T). A free
 //! vertex with no augmenting path never gains one later (Edmonds), so one pass over the
 //! free triangles reaches the maximum; nor does any vertex of the failed search's

@@ -128,13 +128,13 @@ pub(super) trait EdgeKeys: Sync {
     /// The twins of a whole block sorted by run in AVX-512, for keys that have such a
     /// kernel (else false, having done nothing), where runs of at most
     /// [`BLOCK_WINDOW`] half-edges are sure to be right (each is searched in a window
-    /// about each half-edge: [`window_matches_avx512`]): the links of the couples it
+    /// about each half-edge: [`avx512::window_matches_avx512`]): the links of the couples it
     /// finds written, as [`couple_pairs`] writes them, and the half-edges whose runs
     /// it leaves to [`couple_run`] listed in `declined` (by place in `sorted`), those
     /// with an edge of three or more half-edges among them. `words` is scratch space.
     ///
     /// # Safety
-    /// The CPU has AVX-512 F and POPCNT ([`has_avx512`]); the block's slots in `links`
+    /// The CPU has AVX-512 F and POPCNT ([`crate::simd::has_avx512`]); the block's slots in `links`
     /// are this thread's.
     unsafe fn couple_block_avx512(
         &self,
@@ -154,7 +154,7 @@ pub(super) trait EdgeKeys: Sync {
     /// is no kernel); the scalar pass does the rest.
     ///
     /// # Safety
-    /// The CPU has AVX-512 F, POPCNT and BMI2 ([`has_avx512`]); the cursors give every
+    /// The CPU has AVX-512 F, POPCNT and BMI2 ([`crate::simd::has_avx512`]); the cursors give every
     /// half-edge its own slot of `destination`.
     unsafe fn write_out_avx512(
         &self,
@@ -199,7 +199,7 @@ impl Couples {
     /// a time, in cache: a counting sort on the run gathers each run's half-edges (in
     /// the order written, which keeps each triangle's in side order), among which every
     /// edge's are found by comparing edges. Parts of the triangles, then blocks, on the
-    /// pool's threads. When `avx512` (which the CPU must have: [`has_avx512`]), the passes
+    /// pool's threads. When `avx512` (which the CPU must have: [`crate::simd::has_avx512`]), the passes
     /// take the kernels [`EdgeKeys::write_out_avx512`] and
     /// [`EdgeKeys::couple_block_avx512`], where the keys have them.
     pub(super) fn link<K: EdgeKeys>(keys: &K, ranked: RankedSides, avx512: bool) -> Self {
@@ -336,13 +336,11 @@ impl RankedSides {
 /// Counting sort of a block's half-edges on their run (of `runs`): into `sorted`,
 /// with `start[r]` where run `r` ends. The block is taken in [`SORT_PARTS`] parts at
 /// once, each with its own cursors, so that the chains of increments of one cursor
-/// (neighbouring half-edges often share a run) interleave: on the dragon, one core,
-/// the blocks' pass took 15.6 → 14.0 ms with two. While it sorts, the next block's
-/// half-edges, `next`, are fetched from the shared cache, a line in step with each
-/// line read (20.6 → 19.0 ms). As it places a half-edge, the line of its triangle's
-/// slots in `links` is fetched, where the block kernel's scatter of links missed
-/// (side by side on the dragon, compressed keys, one core, Zen 4: medians of eight
-/// runs 60.7 → 58.0 ms in all; fetched as it counts, or with write intent, no gain).
+/// (neighbouring half-edges often share a run) interleave. While it sorts, the next
+/// block's half-edges, `next`, are fetched from the shared cache, a line in step with
+/// each line read. As it places a half-edge, the line of its triangle's slots in
+/// `links` is fetched, where the block kernel's scatter of links missed (fetched as it
+/// counts, or with write intent, it gained nothing).
 #[inline(always)]
 fn sort_by_run<K: EdgeKeys>(
     keys: &K,
@@ -438,28 +436,12 @@ impl<K: EdgeKeys> Default for BlockScratch<K> {
     }
 }
 
-/// The permutes of [`records_of_lanes_avx512`]: for vector `v`, whose word `i` is
-/// word `m % 3` of lane `m / 3` (`m = 16v + i`), the lanes of the first two fields
-/// (the second's numbered from 16), then those of the first permute and the third
-/// field (from 16).
-const RECORD_LANES: [[[i32; 16]; 2]; 3] = {
-    let mut lanes = [[[0; 16]; 2]; 3];
-    let mut m = 0;
-    while m < 48 {
-        let (v, i, lane, word) = (m / 16, m % 16, (m / 3) as i32, m % 3);
-        lanes[v][0][i] = if word == 1 { 16 + lane } else { lane };
-        lanes[v][1][i] = if word == 2 { 16 + lane } else { i as i32 };
-        m += 1;
-    }
-    lanes
-};
-
-/// The most vertices [`load_triangles_avx512`] takes: gathers take i32 offsets, and
+/// The most vertices [`avx512::load_triangles_avx512`] takes: gathers take i32 offsets, and
 /// `3v + axis` must fit.
 pub(super) const MAX_GATHER_VERTICES: usize = (i32::MAX / 3) as usize;
 
 /// The longest run whose twins [`EdgeKeys::couple_block_avx512`] is sure to find: the
-/// window of [`window_matches_avx512`] reaches the rest of the run from any of its
+/// window of [`avx512::window_matches_avx512`] reaches the rest of the run from any of its
 /// half-edges.
 pub(super) const BLOCK_WINDOW: usize = 16;
 
@@ -703,8 +685,8 @@ fn settle_mutual_best(links: &[u32], state: &mut [u8], first: usize, avx512: boo
 /// suitor. A triangle's offer is the rank in it of its suitor's couple, or
 /// [`NO_SUITOR`]: the rank names the side, and so the suitor, which is the triangle
 /// across it. All the state is one byte a triangle, and a proposal reads one link and
-/// one byte when its best couple is accepted (on the dragon, 10 ms where the rank
-/// comparisons of twins' sides took 20, one core).
+/// one byte when its best couple is accepted (half the time that comparing the ranks
+/// of twins' sides took).
 ///
 /// On several threads, parts of the proposers go at once with [`AtomicU8`] offers
 /// (the parallel Suitor of Manne & Halappanavar): an offer is replaced only if it is

@@ -169,7 +169,7 @@ fn random_mesh() -> impl Strategy<Value = TriMesh> {
 }
 
 /// The kernels of [`pair_sah_with`] and [`compressed::pair_sah_compressed_with`] that
-/// this CPU runs: the scalar ones, and the AVX-512 ones where it has AVX-512 ([`has_avx512`]).
+/// this CPU runs: the scalar ones, and the AVX-512 ones where it has AVX-512 ([`crate::simd::has_avx512`]).
 fn kernel_choices() -> Vec<bool> {
     let mut searches = vec![false];
     if has_avx512() {

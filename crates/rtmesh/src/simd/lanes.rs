@@ -3,7 +3,7 @@
 //! early-out branches), by `wide::f32x4` (4 triangles per test on any CPU: SSE, NEON or
 //! scalar emulation), by `wide::f32x8` (8 lanes as two halves unless the whole program
 //! is built for AVX) and, on x86-64, by `Avx8` (8 triangles per test in 256-bit AVX
-//! registers, in `avx.rs`, only run through [`super::dispatch`]). The intersectors are written once over this
+//! registers, in `avx.rs`, only run through `super::dispatch`). The intersectors are written once over this
 //! trait, so the three forms execute the same IEEE operations in the same order (no
 //! fused multiply-add) and give bit-identical results.
 

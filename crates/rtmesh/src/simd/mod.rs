@@ -2,12 +2,13 @@
 //! that the intersectors and packet traversal are written over; and the one dispatch
 //! from the CPU to code compiled for its features.
 //!
-//! A kernel is written once, generic over an instruction set [`Isa`]: [`Portable`]
-//! (any CPU) or, on x86-64, [`Avx`]. [`dispatch`] runs it with `Avx` inside a function
+//! A kernel is written once, generic over an instruction set `Isa`: `Portable`
+//! (any CPU) or, on x86-64, `Avx`. `dispatch` runs it with `Avx` inside a function
 //! compiled with `#[target_feature(enable = "avx")]` when the CPU has AVX, so that the
 //! kernel's `#[inline(always)]` callees are compiled with AVX too; the only `unsafe` is
 //! that call and the intrinsics' loads and stores. Pairing's AVX-512 kernels take
-//! [`has_avx512`] as a flag and sit in `pair/avx512/`, beside the scalar reference.
+//! [`has_avx512`] as a flag and sit in `avx512.rs` files beside the scalar code
+//! they mirror (`pair/suitor/`, `pair/greedy/`, `pair/compressed/`).
 
 #[cfg(target_arch = "x86_64")]
 mod avx;

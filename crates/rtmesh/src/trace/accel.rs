@@ -21,11 +21,9 @@ use serde::Serialize;
 
 /// The SAH charges `ceil(n / 4)` tests for a leaf of `n` triangles, what a 4-wide leaf
 /// test really costs and what Embree's BVH8 builder charges (`sahBlockSize` 4): a set
-/// of at most four triangles always becomes one full block. Measured on the dragon
-/// against charging `ceil(n / 2)`: SAH 16.55 → 16.45, 10.65 → 10.47 nodes and 79.4 →
-/// 77.7 box tests per diffuse ray, 83.5 → 66.1 bytes per triangle, +10–15% diffuse
-/// Mrays/s. (An earlier builder charged the left side of a split per triangle and the
-/// right per block, which peeled groups of four off into deep chains at this setting.)
+/// of at most four triangles always becomes one full block. It beat charging
+/// `ceil(n / 2)` on nodes, box tests, bytes and Mrays/s (figures in
+/// `docs/measurements/tracer.md`).
 const TRIANGLE_LEAF_BLOCK: usize = 4;
 
 /// A TLAS leaf: one placement of a mesh.

@@ -11,7 +11,7 @@ use rayon::prelude::*;
 const CHUNK: usize = TILE * TILE;
 
 /// Run `trace` on every ray on the current rayon pool, a tile (64 rays) per work item;
-/// returns the outcomes and per-ray counters (zero-sized and free for [`NoCounters`]).
+/// returns the outcomes and per-ray counters (zero-sized and free for [`NoCounters`](super::NoCounters)).
 pub(crate) fn trace_each<C: Counters + Copy, R: Copy + Send>(
     rays: &[Ray],
     nothing: R,
@@ -50,7 +50,7 @@ pub fn trace_occluded<C: Counters + Copy>(
 type PacketItem<'a, R, C> = (&'a [Ray], Vec<usize>, &'a mut [R], &'a mut [C]);
 
 /// Split `rays` and per-ray outputs into work items of whole packets (`starts` as
-/// from [`Workload::primary_packets`]), about 64 rays each.
+/// from [`Workload::primary_packets`](super::Workload::primary_packets)), about 64 rays each.
 fn packet_items<'a, R, C>(
     rays: &'a [Ray],
     starts: &[u32],
@@ -77,7 +77,7 @@ fn packet_items<'a, R, C>(
 }
 
 /// Run `trace(buffer, rays, outcomes, counters)` on every packet (`starts` as from
-/// [`Workload::grouped`]) on the current rayon pool, one packet buffer per work item.
+/// [`Workload::grouped`](super::Workload::grouped)) on the current rayon pool, one packet buffer per work item.
 fn trace_packets<R: Copy + Send, C: Counters + Copy>(
     rays: &[Ray],
     starts: &[u32],
@@ -107,7 +107,7 @@ fn trace_packets<R: Copy + Send, C: Counters + Copy>(
     (outcomes, counters)
 }
 
-/// Closest hits of packets of rays (`starts` as from [`Workload::grouped`]) with
+/// Closest hits of packets of rays (`starts` as from [`Workload::grouped`](super::Workload::grouped)) with
 /// packet traversal and intersector `I`, on the current rayon pool, with per-ray
 /// counters.
 pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
@@ -120,7 +120,7 @@ pub fn trace_packets_closest<I: Intersector, C: Counters + Copy>(
     })
 }
 
-/// Occlusion of packets of rays (`starts` as from [`Workload::grouped`]) with packet
+/// Occlusion of packets of rays (`starts` as from [`Workload::grouped`](super::Workload::grouped)) with packet
 /// traversal and intersector `I`, on the current rayon pool, with per-ray counters.
 pub fn trace_packets_occluded<I: Intersector, C: Counters + Copy>(
     accel: &SceneAccel,

@@ -12,8 +12,7 @@ use crate::pair::suitor::avx512::{
 use crate::pair::suitor::MAX_GATHER_VERTICES;
 
 /// How many triangles ahead [`Quantiser::group_keys_avx512`] prefetches corners: its
-/// gathers waited on them (on the dragon, one core, Zen 4, profiled side by side: the
-/// keys of both passes took 17 ms, not 24; 128 and 256 ahead did no better).
+/// gathers waited on them without it, and farther ahead did no better.
 const CORNERS_AHEAD: usize = 64;
 
 /// The most triangles the block kernel gathers corners from: vertex `3t + corner` of
@@ -81,7 +80,7 @@ const HALF_EDGE_LANES: [[i32; 16]; 2] = {
     lanes
 };
 
-/// The kernel of the trait method of the same name for [`PositionKeys`].
+/// The kernel of [`EdgeKeys::write_out_avx512`] for [`PositionKeys`].
 ///
 /// Sixteen triangles at a time: their keys computed again
 /// ([`Quantiser::group_keys_avx512`]), and from them their blocks and signatures,
@@ -125,7 +124,7 @@ pub(super) unsafe fn write_out_avx512(
     done
 }
 
-/// The kernel of the trait method of the same name for [`PositionKeys`].
+/// The kernel of [`EdgeKeys::couple_block_avx512`] for [`PositionKeys`].
 ///
 /// The whole block, 16 half-edges at a time, as the indexed kernel does it, on
 /// the signatures ([`window_matches_avx512`] compares words): a half-edge with one
@@ -200,7 +199,7 @@ pub(super) unsafe fn couple_block_avx512(
         let ([t, from, to, link], lanes) = window[1];
         let (single, several, at) = window_matches_avx512(word, p, lanes);
         // By value: borrowed, the window went through the stack, whose 512-bit
-        // reloads of just-stored vectors stalled (Zen 4: search 16 -> 19 ms).
+        // reloads of just-stored vectors stalled.
         let [(before, _), (this, _), (after, _)] = window;
         let twin =
             move |field: usize| lanes_at_avx512([before[field], this[field], after[field]], at);

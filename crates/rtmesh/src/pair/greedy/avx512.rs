@@ -22,9 +22,9 @@ use crate::pair::suitor::MAX_GATHER_VERTICES;
 /// vertex has a twin. Twins that run opposite ways ([`EdgeKeys::may_couple`]) are
 /// couples: each writes its own slot (`3t + rank` is `link - t`) with its twin's
 /// link, in one scatter for 16 half-edges. A half-edge with more matches, or one
-/// of another larger vertex, is declined. On the dragon's 437k runs (one core)
-/// this takes 5.3 ms where a kernel per run, with `vpconflictd` (about 20 cycles)
-/// and two scatters a run, took 10.
+/// of another larger vertex, is declined. One kernel per block, not per run: a
+/// kernel per run, with `vpconflictd` (about 20 cycles) and two scatters a run, took
+/// twice as long.
 #[target_feature(enable = "avx512f,popcnt")]
 pub(super) unsafe fn couple_block_avx512(
     sorted: &[VertexHalfEdge],
@@ -60,7 +60,7 @@ pub(super) unsafe fn couple_block_avx512(
         let ([_, other, link], lanes) = window[1];
         let (one, several, at) = window_matches_avx512(word, p, lanes);
         // By value: borrowed, the window went through the stack, whose 512-bit
-        // reloads of just-stored vectors stalled (Zen 4: search 16 -> 19 ms).
+        // reloads of just-stored vectors stalled.
         let [(before, _), (this, _), (after, _)] = window;
         let twin =
             move |field: usize| lanes_at_avx512([before[field], this[field], after[field]], at);
@@ -78,13 +78,13 @@ pub(super) unsafe fn couple_block_avx512(
     true
 }
 
-/// The kernel of the trait method of the same name for [`VertexKeys`].
+/// The kernel of [`EdgeKeys::write_out_avx512`] for [`VertexKeys`].
 ///
 /// Sixteen triangles at a time: their half-edges built lane-wise, one side at a
 /// time, and interleaved into records; then, block by block
 /// ([`for_each_block_avx512`]: mostly one or two), each side's records in the
-/// block compressed to the block's cursor. On the dragon, one core: 5 ms, where
-/// the scalar pass (three cursors a triangle, in a chain) takes 9.
+/// block compressed to the block's cursor, where the scalar pass moves three
+/// cursors a triangle in a chain.
 #[target_feature(enable = "avx512f,popcnt,bmi2")]
 pub(super) unsafe fn write_out_avx512(
     vertex_keys: &VertexKeys<'_>,
@@ -141,12 +141,11 @@ impl VertexKeys<'_> {
     /// [`VertexKeys::side_keys`] and the comparisons of [`side_ranks`] on their keys (box
     /// area bits, then smaller vertex, then larger) done lane-wise, with the same
     /// floating-point operations in the same order, so the bytes are the scalar pass's.
-    /// Only the block counts are added up one by one. On the dragon, one core: 7 ms, where
-    /// the scalar pass (branches, checks and 128-bit keys per triangle) takes 16. Returns
-    /// the prefix's length.
+    /// Only the block counts are added up one by one, where the scalar pass branches,
+    /// checks and builds 128-bit keys per triangle. Returns the prefix's length.
     ///
     /// # Safety
-    /// The CPU has AVX-512 F and POPCNT ([`has_avx512`]).
+    /// The CPU has AVX-512 F and POPCNT ([`crate::simd::has_avx512`]).
     #[target_feature(enable = "avx512f,popcnt")]
     pub(super) unsafe fn rank_and_count_avx512(
         &self,

@@ -140,7 +140,7 @@ pub(in crate::pair) unsafe fn load_triangles_avx512(
     (v, corner, active)
 }
 
-/// [`edge_bbsa`](super::edge_bbsa) of the edges `p–q` in AVX-512 lanes
+/// [`edge_bbsa`](crate::pair::edge_bbsa) of the edges `p–q` in AVX-512 lanes
 /// (`[axis]`), with the same floating-point operations in the same order, so the same
 /// bits.
 ///
@@ -172,7 +172,7 @@ pub(in crate::pair) unsafe fn edge_bbsa_avx512(
 /// [`EXCLUDED`] in lanes not `active`) and counts the active ones' half-edges into
 /// `count` block by block: the 48 half-edges of 16 neighbouring triangles are mostly
 /// in one or two blocks, and one count per block, of the lanes compared with it,
-/// beats 48 increments in a chain (the dragon's first pass, one core: 6.8 → 5.3 ms).
+/// beats 48 increments in a chain.
 ///
 /// # Safety
 /// The CPU has AVX-512 F and POPCNT.
@@ -627,3 +627,19 @@ pub(super) unsafe fn suitor_pairs_avx512(links: &[u32], state: &[u8], n: usize) 
     unpaired.shrink_to_fit();
     Pairing { pairs, unpaired }
 }
+
+/// The permutes of [`records_of_lanes_avx512`]: for vector `v`, whose word `i` is
+/// word `m % 3` of lane `m / 3` (`m = 16v + i`), the lanes of the first two fields
+/// (the second's numbered from 16), then those of the first permute and the third
+/// field (from 16).
+const RECORD_LANES: [[[i32; 16]; 2]; 3] = {
+    let mut lanes = [[[0; 16]; 2]; 3];
+    let mut m = 0;
+    while m < 48 {
+        let (v, i, lane, word) = (m / 16, m % 16, (m / 3) as i32, m % 3);
+        lanes[v][0][i] = if word == 1 { 16 + lane } else { lane };
+        lanes[v][1][i] = if word == 2 { 16 + lane } else { i as i32 };
+        m += 1;
+    }
+    lanes
+};
