@@ -3,7 +3,11 @@
 //! Before any payload is read, each element count in the header is checked against the
 //! bytes left in the file, so an absurd header (4e9 vertices) is an error, not an
 //! allocation. Faces are `vertex_indices` (or `vertex_index`) lists of any integer type;
-//! polygons are fan-triangulated. The writer emits binary little-endian PLY directly:
+//! polygons are fan-triangulated. Triangle strips (a `tristrips` element, as some
+//! scanned models ship: lists of vertex indices with −1 between strips) are decoded
+//! with alternating winding, and the strips' degenerate triangles (the swaps and joins
+//! that stitch a generalized strip, naming a vertex twice) are dropped and counted in
+//! [`crate::mesh::ReadNotes`]. The writer emits binary little-endian PLY directly:
 //! the format is a header and two packed arrays, and writing them in bulk is far faster
 //! than going through per-property callbacks.
 
@@ -85,6 +89,67 @@ impl PropertyAccess for Face {
     }
 }
 
+/// One `tristrips` element: vertex indices, −1 between strips (as a signed value, or
+/// as the largest unsigned one in a list of unsigned indices).
+#[derive(Default)]
+struct Strips(Vec<i64>);
+
+impl PropertyAccess for Strips {
+    fn new() -> Self {
+        Self::default()
+    }
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        if !is_index_list(name) {
+            return PropertyAccessResult::Ignored;
+        }
+        let restart_unsigned = |v: u64, max: u64| if v == max { -1 } else { v as i64 };
+        self.0 = match property {
+            Property::ListChar(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListShort(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListInt(v) => v.into_iter().map(i64::from).collect(),
+            Property::ListUChar(v) => v
+                .into_iter()
+                .map(|i| restart_unsigned(i.into(), u8::MAX.into()))
+                .collect(),
+            Property::ListUShort(v) => v
+                .into_iter()
+                .map(|i| restart_unsigned(i.into(), u16::MAX.into()))
+                .collect(),
+            Property::ListUInt(v) => v
+                .into_iter()
+                .map(|i| restart_unsigned(i.into(), u32::MAX.into()))
+                .collect(),
+            _ => return PropertyAccessResult::UnsupportedType,
+        };
+        PropertyAccessResult::Set
+    }
+}
+
+/// Append the triangles of the strips in `indices` (−1 restarts a strip) to
+/// `triangles`: triangle `i` of a strip `s` is `(s[i], s[i+1], s[i+2])` for even `i`
+/// and `(s[i+1], s[i], s[i+2])` for odd `i`, so all keep one winding. Triangles that
+/// name a vertex twice are dropped; returns how many, or the first index that is
+/// neither a vertex nor −1.
+fn strip_triangles(indices: &[i64], triangles: &mut Vec<[u32; 3]>) -> Result<usize, i64> {
+    let mut dropped = 0;
+    for strip in indices.split(|&i| i == -1) {
+        if let Some(&bad) = strip.iter().find(|&&i| !(0..=u32::MAX as i64).contains(&i)) {
+            return Err(bad);
+        }
+        for (i, w) in strip.windows(3).enumerate() {
+            let [a, b, c] = [w[0] as u32, w[1] as u32, w[2] as u32];
+            if a == b || b == c || a == c {
+                dropped += 1;
+            } else if i % 2 == 0 {
+                triangles.push([a, b, c]);
+            } else {
+                triangles.push([b, a, c]);
+            }
+        }
+    }
+    Ok(dropped)
+}
+
 fn scalar_bytes(t: &ScalarType) -> u64 {
     match t {
         ScalarType::Char | ScalarType::UChar => 1,
@@ -160,6 +225,7 @@ pub(super) fn read<R: BufRead>(
     }
 
     let mut mesh = TriMesh::default();
+    let mut dropped = 0;
     for element in header.elements.values() {
         match element.name.as_str() {
             "vertex" => {
@@ -195,6 +261,25 @@ pub(super) fn read<R: BufRead>(
                     }
                 }
             }
+            "tristrips" => {
+                if !element.properties.keys().any(|k| is_index_list(k)) {
+                    return Err(MeshError::invalid(
+                        path,
+                        "'tristrips' element has no 'vertex_indices' list",
+                    ));
+                }
+                let strips = Parser::<Strips>::new()
+                    .read_payload_for_element(&mut reader, element, &header)
+                    .map_err(|e| parse_error(&reader, e))?;
+                for (s, strip) in strips.iter().enumerate() {
+                    dropped += strip_triangles(&strip.0, &mut mesh.triangles).map_err(|bad| {
+                        MeshError::invalid(
+                            path,
+                            format!("tristrips element {s} has index {bad}, neither a vertex nor the -1 restart"),
+                        )
+                    })?;
+                }
+            }
             _ => {
                 Parser::<DefaultElement>::new()
                     .read_payload_for_element(&mut reader, element, &header)
@@ -205,7 +290,9 @@ pub(super) fn read<R: BufRead>(
     let n = mesh.triangles.len();
     mesh.material_ids = vec![0; n];
     mesh.alpha_tested = vec![false; n];
-    Ok(Scene::from_mesh(mesh))
+    let mut scene = Scene::from_mesh(mesh);
+    scene.read_notes.strip_degenerates_dropped = dropped;
+    Ok(scene)
 }
 
 pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {

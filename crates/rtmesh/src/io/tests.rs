@@ -219,3 +219,73 @@ fn obj_groups_become_geometries_and_ngons_fans() {
     let empty = TriMesh::default();
     assert_eq!(empty.triangle_count(), 0);
 }
+
+/// A PLY of six vertices and one `tristrips` element: the strip 0 1 2 3, a restart,
+/// then 2 3 4 4 5 (a swap: the repeated 4 makes two degenerate triangles).
+fn tristrip_ply(binary: bool) -> Vec<u8> {
+    let strip: [i32; 10] = [0, 1, 2, 3, -1, 2, 3, 4, 4, 5];
+    let corners: [[f32; 3]; 6] = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 2.0, 0.0],
+        [1.0, 2.0, 0.0],
+    ];
+    let format = if binary {
+        "binary_little_endian"
+    } else {
+        "ascii"
+    };
+    let mut bytes = format!(
+        "ply\nformat {format} 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\nelement tristrips 1\nproperty list int int vertex_indices\nend_header\n"
+    )
+    .into_bytes();
+    if binary {
+        for c in corners.iter().flatten() {
+            bytes.extend(c.to_le_bytes());
+        }
+        bytes.extend((strip.len() as i32).to_le_bytes());
+        for i in strip {
+            bytes.extend(i.to_le_bytes());
+        }
+    } else {
+        for [x, y, z] in corners {
+            bytes.extend(format!("{x} {y} {z}\n").bytes());
+        }
+        let list: Vec<String> = strip.iter().map(i32::to_string).collect();
+        bytes.extend(format!("{} {}\n", strip.len(), list.join(" ")).bytes());
+    }
+    bytes
+}
+
+#[test]
+fn ply_tristrips_read_the_exact_triangles_with_their_winding() {
+    for binary in [false, true] {
+        let scene = read_bytes(Path::new("strips.ply"), &tristrip_ply(binary)).unwrap();
+        // Odd triangles of a strip swap their first two corners; the swap's two
+        // degenerate triangles (3 4 4 and 4 4 5) are dropped.
+        assert_eq!(
+            scene.meshes[0].triangles,
+            [[0, 1, 2], [2, 1, 3], [2, 3, 4]],
+            "binary {binary}"
+        );
+        assert_eq!(
+            scene.read_notes.strip_degenerates_dropped, 2,
+            "binary {binary}"
+        );
+        // Every triangle faces +z, as the strip's first does.
+        let mesh = &scene.meshes[0];
+        for t in 0..mesh.triangle_count() {
+            let [a, b, c] = mesh.corners(t);
+            assert!(
+                (b - a).cross(c - a).z > 0.0,
+                "triangle {t}, binary {binary}"
+            );
+        }
+    }
+    let bad = tristrip_ply(false);
+    let bad = String::from_utf8(bad).unwrap().replace(" -1 ", " -7 ");
+    let message = error_of("strips.ply", bad.as_bytes());
+    assert!(message.contains("index -7"), "{message}");
+}

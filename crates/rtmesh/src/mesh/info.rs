@@ -42,6 +42,8 @@ pub struct MeshInfo {
     pub repeated_vertex_triangles: usize,
     /// Triangles with distinct vertices but zero area.
     pub zero_area_triangles: usize,
+    /// Degenerate triangles of PLY triangle strips (swaps and joins) dropped on reading.
+    pub strip_degenerates_dropped: usize,
 }
 
 impl MeshInfo {
@@ -68,6 +70,7 @@ impl MeshInfo {
             non_finite_triangles: validation.non_finite_positions.len(),
             repeated_vertex_triangles: validation.repeated_vertices.len(),
             zero_area_triangles: validation.zero_area.len(),
+            strip_degenerates_dropped: scene.read_notes.strip_degenerates_dropped,
         }
     }
 }

@@ -155,6 +155,17 @@ pub struct Scene {
     /// meshes' vertices (OBJ: unused vertices are dropped and vertices shared between
     /// groups are copied into each group's geometry).
     pub source_vertex_count: Option<usize>,
+    /// What the reader dropped or changed on the way in, by documented rule.
+    pub read_notes: ReadNotes,
+}
+
+/// The documented repairs a reader made, counted (all zero for a scene not read from a
+/// file).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct ReadNotes {
+    /// Triangles of PLY `tristrips` that name a vertex twice: the swaps and joins that
+    /// stitch a generalized strip together, which cover no surface. Dropped.
+    pub strip_degenerates_dropped: usize,
 }
 
 impl Scene {
@@ -168,6 +179,7 @@ impl Scene {
             }],
             materials: vec![Material::default()],
             source_vertex_count: None,
+            read_notes: ReadNotes::default(),
         }
     }
 
