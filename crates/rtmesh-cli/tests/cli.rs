@@ -54,7 +54,7 @@ fn errors_name_file_and_line_and_exit_non_zero() {
     let missing = rtmesh(&["info", "/nonexistent/mesh.ply"]);
     assert!(!missing.status.success());
     assert!(String::from_utf8_lossy(&missing.stderr).contains("/nonexistent/mesh.ply"));
-    let unknown = rtmesh(&["info", "mesh.stl"]);
+    let unknown = rtmesh(&["info", "mesh.xyz"]);
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("unknown mesh format"));
     std::fs::remove_dir_all(&dir).ok();
 }

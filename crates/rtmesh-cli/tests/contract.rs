@@ -91,6 +91,7 @@ fn info_convert_pair_lint_repair_keys() {
         "vertices",
         "welded_vertices",
         "zero_area_triangles",
+        "strip_degenerates_dropped",
     ];
     assert_keys(&["info", "builtin:grid", "--json"], &info);
     let glb = dir.join("room.glb");

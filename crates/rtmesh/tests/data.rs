@@ -288,3 +288,44 @@ fn packets_and_intersectors_on_real_meshes() {
         }
     }
 }
+
+/// The same mesh as STL (a triangle soup, welded back on reading) and as its source
+/// OBJ: the same triangles and welded vertices, the corners bit for bit.
+#[test]
+fn stl_gives_the_counts_of_the_same_mesh_in_obj() {
+    let Some(dir) = mesh_data_dir() else { return };
+    let scratch = std::env::temp_dir().join(format!("rtmesh-stl-data-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).unwrap();
+    for file in [
+        "stanford-bunny.obj",
+        "spot.obj",
+        "happy_buddha_113k.obj",
+        "fandisk.obj",
+    ] {
+        let scene = rtmesh::io::read(&dir.join(file)).unwrap();
+        let stl = scratch.join(file).with_extension("stl");
+        rtmesh::io::write(&scene, &stl).unwrap();
+        let back = rtmesh::io::read(&stl).unwrap();
+        let (a, b) = (MeshInfo::of(&scene), MeshInfo::of(&back));
+        assert_eq!(
+            (
+                a.triangles,
+                a.welded_vertices,
+                a.components,
+                a.boundary_edges
+            ),
+            (
+                b.triangles,
+                b.welded_vertices,
+                b.components,
+                b.boundary_edges
+            ),
+            "{file}"
+        );
+        let (flat, soup) = (scene.flatten(), back.flatten());
+        for t in 0..flat.triangle_count() {
+            assert_eq!(flat.corners(t), soup.corners(t), "{file} triangle {t}");
+        }
+    }
+    std::fs::remove_dir_all(&scratch).ok();
+}

@@ -58,4 +58,10 @@ pub fn print(name: &str, info: &MeshInfo) {
         "  broken triangles   {:>10} non-finite, {} repeated-vertex, {} zero-area",
         info.non_finite_triangles, info.repeated_vertex_triangles, info.zero_area_triangles
     );
+    if info.strip_degenerates_dropped > 0 {
+        println!(
+            "  strips             {:>10} degenerate strip triangles (swaps and joins) dropped on reading",
+            info.strip_degenerates_dropped
+        );
+    }
 }

@@ -1,4 +1,4 @@
-//! Reading and writing meshes: OBJ (tobj), PLY (ply-rs-bw) and glTF/GLB (gltf).
+//! Reading and writing meshes: OBJ (tobj), PLY (ply-rs-bw), glTF/GLB (gltf) and STL.
 //!
 //! Every reader returns a [`MeshError`] on bad input, never panics, and names the file
 //! and, where the format has lines, the line (OBJ, ascii PLY) or else the byte offset or
@@ -12,6 +12,7 @@
 mod gltf;
 mod obj;
 mod ply;
+mod stl;
 
 use crate::mesh::Scene;
 use std::io::{BufRead, Read};
@@ -47,7 +48,7 @@ pub enum MeshError {
         message: String,
     },
     /// The extension is not one rtmesh reads or writes.
-    #[error("{}: unknown mesh format (expected .obj, .ply, .gltf or .glb)", path.display())]
+    #[error("{}: unknown mesh format (expected .obj, .ply, .gltf, .glb or .stl)", path.display())]
     UnknownFormat {
         /// The file.
         path: PathBuf,
@@ -89,6 +90,8 @@ pub enum Format {
     Gltf,
     /// glTF 2.0 binary.
     Glb,
+    /// STL, binary or ascii (written as binary).
+    Stl,
 }
 
 impl Format {
@@ -103,6 +106,7 @@ impl Format {
             Some("ply") => Ok(Self::Ply),
             Some("gltf") => Ok(Self::Gltf),
             Some("glb") => Ok(Self::Glb),
+            Some("stl") => Ok(Self::Stl),
             _ => Err(MeshError::UnknownFormat {
                 path: path.to_owned(),
             }),
@@ -158,19 +162,22 @@ fn read_counted<R: BufRead>(
         Format::Obj => obj::read(path, reader)?,
         Format::Ply => ply::read(path, reader, total)?,
         Format::Gltf | Format::Glb => gltf::read(path, reader)?,
+        Format::Stl => stl::read(path, reader)?,
     };
     check_indices(path, &scene)?;
     Ok(scene)
 }
 
-/// Write `scene` to `path` in the format its extension names. OBJ and PLY hold one
-/// level: instances are flattened into world space (OBJ keeps one group per instance).
+/// Write `scene` to `path` in the format its extension names. OBJ, PLY and STL hold
+/// one level: instances are flattened into world space (OBJ keeps one group per
+/// instance).
 /// glTF/GLB keep meshes, materials and instance transforms.
 pub fn write(scene: &Scene, path: &Path) -> Result<(), MeshError> {
     let format = Format::from_path(path)?;
     let result = match format {
         Format::Obj => obj::write(scene, path),
         Format::Ply => ply::write(&scene.flatten(), path),
+        Format::Stl => stl::write(&scene.flatten(), path),
         Format::Gltf | Format::Glb => gltf::write(scene, path, format == Format::Glb),
     };
     result.map_err(|e| MeshError::io(path, e))

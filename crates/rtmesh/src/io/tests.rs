@@ -289,3 +289,100 @@ fn ply_tristrips_read_the_exact_triangles_with_their_winding() {
     let message = error_of("strips.ply", bad.as_bytes());
     assert!(message.contains("index -7"), "{message}");
 }
+
+/// Two triangles of a unit square sharing the edge (1,0,0)–(0,1,0), as ascii STL.
+const SQUARE_STL: &str = "solid square\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0 1 0\n  endloop\n endfacet\n facet normal 0 0 1\n  outer loop\n   vertex 1 0 0\n   vertex 1 1 0\n   vertex 0 1 0\n  endloop\n endfacet\nendsolid square\n";
+
+/// A binary STL of the triangles `corners`, with the header starting with `solid` (as
+/// some writers do) to show that the size decides.
+fn binary_stl(corners: &[[[f32; 3]; 3]], declared: u32) -> Vec<u8> {
+    let mut bytes = b"solid but binary".to_vec();
+    bytes.resize(80, b' ');
+    bytes.extend(declared.to_le_bytes());
+    for triangle in corners {
+        bytes.extend([0u8; 12]);
+        for c in triangle.iter().flatten() {
+            bytes.extend(c.to_le_bytes());
+        }
+        bytes.extend([0u8; 2]);
+    }
+    bytes
+}
+
+#[test]
+fn stl_ascii_and_binary_weld_to_the_same_indexed_mesh() {
+    let square = [
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+    ];
+    let ascii = read_bytes(Path::new("square.stl"), SQUARE_STL.as_bytes()).unwrap();
+    let binary = read_bytes(Path::new("square.stl"), &binary_stl(&square, 2)).unwrap();
+    for scene in [&ascii, &binary] {
+        let mesh = &scene.meshes[0];
+        assert_eq!(mesh.triangles, [[0, 1, 2], [1, 3, 2]]);
+        assert_eq!(mesh.positions.len(), 4);
+        for (t, corners) in square.iter().enumerate() {
+            assert_eq!(mesh.corners(t), corners.map(glam::Vec3::from_array));
+        }
+        assert_eq!(scene.source_vertex_count, Some(6));
+    }
+    assert_eq!(ascii.meshes[0].name, "square");
+    // Two solids: two geometries, named.
+    let two = format!("{SQUARE_STL}{}", SQUARE_STL.replace("square", "other"));
+    let scene = read_bytes(Path::new("two.stl"), two.as_bytes()).unwrap();
+    let names: Vec<&str> = scene.meshes.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["square", "other"]);
+    assert_eq!(scene.instances.len(), 2);
+}
+
+#[test]
+fn stl_errors_name_the_file_and_line() {
+    let square = [[[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
+    let lying = binary_stl(&square, 1_000_000);
+    let message = error_of("lying.stl", &lying[4..]);
+    assert!(message.starts_with("lying.stl: "), "{message}");
+    let message = error_of("lying.stl", &binary_stl(&square, 1_000_000));
+    assert!(
+        message.contains("declares 1000000 triangles") && message.contains("lying.stl"),
+        "{message}"
+    );
+    let cases = [
+        (
+            SQUARE_STL.replace("vertex 1 1 0", "vertex 1 one 0"),
+            "bad.stl:12: vertex coordinate `one`",
+        ),
+        (
+            SQUARE_STL.replace(
+                "   vertex 0 1 0\n  endloop\n endfacet\nendsolid",
+                "   vertex 0 1 0\n   vertex 2 2 0\n  endloop\n endfacet\nendsolid",
+            ),
+            "bad.stl:14: a facet with more than 3",
+        ),
+        (
+            SQUARE_STL.replace("endsolid square\n", ""),
+            "bad.stl: the last solid has no endsolid",
+        ),
+        (
+            SQUARE_STL.replacen("   vertex 0 0 0\n", "", 1),
+            "bad.stl:6: a facet with 2 vertices",
+        ),
+        ("hello\n".into(), "bad.stl: 6 bytes: too short"),
+    ];
+    for (text, expected) in cases {
+        let message = error_of("bad.stl", text.as_bytes());
+        assert!(
+            message.starts_with(expected),
+            "{message:?} should start with {expected:?}"
+        );
+    }
+}
+
+#[test]
+fn stl_round_trip_keeps_corners_and_order_bit_exact() {
+    let scene = scenes::by_name("room").unwrap();
+    let back = round_trip(&scene, "stl");
+    assert_eq!(
+        corner_bits(&Scene::from_mesh(scene.flatten())),
+        corner_bits(&back)
+    );
+}
