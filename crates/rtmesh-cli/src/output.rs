@@ -71,3 +71,16 @@ impl rtmesh::progress::Progress for Bar {
         self.0.inc(steps);
     }
 }
+
+/// Write `scene` to `path`, and say on standard error what the format could not hold.
+pub fn write_mesh(scene: &rtmesh::Scene, path: &std::path::Path) -> Result<()> {
+    let notes = rtmesh::io::write(scene, path)?;
+    if notes.inactive_collapsed > 0 {
+        eprintln!(
+            "note: {}: glTF cannot hold NaN, so {} inactive triangles were written as degenerate triangles collapsed onto a corner (same place in the order, no area)",
+            path.display(),
+            notes.inactive_collapsed
+        );
+    }
+    Ok(())
+}

@@ -195,3 +195,29 @@ fn lint_and_repair_report_and_fix_the_fan_cylinder() {
     assert_eq!(info["triangles"].as_u64().unwrap(), triangles_out);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A glTF named by a bare file name from its own folder finds the `.bin` beside it.
+#[test]
+fn gltf_named_by_a_bare_file_name_reads_its_buffer() {
+    let dir = std::env::temp_dir().join(format!("rtmesh-cli-bare-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let written = json_of(&[
+        "convert",
+        "builtin:room",
+        dir.join("room.gltf").to_str().unwrap(),
+        "--json",
+    ]);
+    let out = Command::new(env!("CARGO_BIN_EXE_rtmesh"))
+        .current_dir(&dir)
+        .args(["info", "room.gltf", "--json"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let info: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(info["instanced_triangles"], written["triangles"]);
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,7 +1,7 @@
 //! `rtmesh convert`: between formats, keeping triangle order.
 
 use crate::args::load;
-use crate::output::emit;
+use crate::output::{emit, write_mesh};
 use anyhow::Result;
 use serde::Serialize;
 use std::path::PathBuf;
@@ -47,7 +47,7 @@ pub fn run(args: Args) -> Result<()> {
             *mesh = result.mesh;
         }
     }
-    rtmesh::io::write(&scene, &args.output)?;
+    write_mesh(&scene, &args.output)?;
     let report = Report {
         input: args.input,
         output: args.output,

@@ -2,7 +2,7 @@
 //! time.
 
 use crate::args::load;
-use crate::output::emit;
+use crate::output::{emit, write_mesh};
 use anyhow::Result;
 use rtmesh::pair::{PairMethod, PairReport, PairSettings};
 use serde::Serialize;
@@ -62,7 +62,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let pairing = rtmesh::pair::pair_scene(&mut scene, &settings);
     if let Some(output) = &args.output {
-        rtmesh::io::write(&scene, output)?;
+        write_mesh(&scene, output)?;
     }
     let report = Report {
         mesh: args.mesh,

@@ -1,7 +1,7 @@
 //! `rtmesh repair`: fix what lint finds, write the result, measure the gain.
 
 use crate::args::{load, parse_size_or_zero};
-use crate::output::{emit, steps_bar};
+use crate::output::{emit, steps_bar, write_mesh};
 use anyhow::{Context, Result};
 use rtmesh::lint::LintSettings;
 use rtmesh::progress::Progress;
@@ -128,7 +128,7 @@ pub fn run(args: Args) -> Result<()> {
     bar.advance(1);
     if let Some(output) = &args.output {
         bar.message(&format!("writing {}", output.display()));
-        rtmesh::io::write(&repaired, output)?;
+        write_mesh(&repaired, output)?;
         bar.advance(1);
     }
     if let Some(path) = &args.map {

@@ -47,9 +47,7 @@ pub(super) fn read<R: BufRead>(
     check_position_references(unvalidated.as_json()).map_err(|e| MeshError::invalid(path, e))?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(&bytes).map_err(|e| MeshError::invalid(path, e.to_string()))?;
-    let base = path.parent().filter(|p| p.exists());
-    let buffers = gltf::import_buffers(&document, base, blob)
-        .map_err(|e| MeshError::invalid(path, format!("buffers: {e}")))?;
+    let buffers = read_buffers(path, &document, blob)?;
 
     let mut scene = Scene {
         materials: document
@@ -170,6 +168,57 @@ pub(super) fn read<R: BufRead>(
     Ok(scene)
 }
 
+/// The data of every buffer: the GLB's binary chunk, a `data:` URI decoded in memory, or
+/// a file read by the rule for references (`reference.rs`); each at least as long as
+/// the buffer declares.
+fn read_buffers(
+    path: &Path,
+    document: &gltf::Document,
+    mut blob: Option<Vec<u8>>,
+) -> Result<Vec<gltf::buffer::Data>, MeshError> {
+    use super::reference::{percent_decode, read_referenced, MAX_REFERENCED_BYTES};
+    let mut buffers = Vec::new();
+    for buffer in document.buffers() {
+        let context =
+            |what: String| MeshError::invalid(path, format!("buffer {}: {what}", buffer.index()));
+        let mut data = match buffer.source() {
+            gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
+                context("refers to a GLB binary chunk the file does not have".into())
+            })?,
+            gltf::buffer::Source::Uri(uri) if uri.starts_with("data:") => {
+                // Base64 takes 4 bytes per 3.
+                if uri.len() as u64 > MAX_REFERENCED_BYTES / 3 * 4 + 1024 {
+                    return Err(context(format!(
+                        "its data: URI has {} bytes, over the limit of {MAX_REFERENCED_BYTES} decoded",
+                        uri.len()
+                    )));
+                }
+                gltf::buffer::Data::from_source(buffer.source(), None)
+                    .map_err(|e| context(format!("data: URI: {e}")))?
+                    .0
+            }
+            gltf::buffer::Source::Uri(uri) => {
+                let reference = percent_decode(uri)
+                    .ok_or_else(|| context(format!("URI '{uri}' has a malformed %-escape")))?;
+                read_referenced(path, &reference)?
+                    .ok_or_else(|| context(format!("'{reference}' not found beside the file")))?
+            }
+        };
+        if data.len() < buffer.length() {
+            return Err(context(format!(
+                "declares {} bytes but its data has {}",
+                buffer.length(),
+                data.len()
+            )));
+        }
+        while data.len() % 4 != 0 {
+            data.push(0);
+        }
+        buffers.push(gltf::buffer::Data(data));
+    }
+    Ok(buffers)
+}
+
 fn check_position_references(root: &gltf::json::Root) -> Result<(), String> {
     let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
     for (m, mesh) in root.meshes.iter().enumerate() {
@@ -268,7 +317,50 @@ fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> 
     Ok(())
 }
 
-pub(super) fn write(scene: &Scene, path: &Path, binary: bool) -> std::io::Result<()> {
+/// `mesh` as glTF can hold it, which forbids NaN and infinite positions: every triangle
+/// with a non-finite corner (an inactive triangle, as DXR reads NaN) collapsed onto one
+/// of its finite corners (or the mesh's first finite vertex), so that it keeps its place
+/// and covers nothing, and every non-finite position replaced by a finite one. Returns
+/// the mesh and how many triangles were collapsed.
+fn without_non_finite(mesh: &TriMesh) -> (Cow<'_, TriMesh>, usize) {
+    if mesh.positions.iter().all(|p| p.is_finite()) {
+        return (Cow::Borrowed(mesh), 0);
+    }
+    let finite = |v: u32| {
+        mesh.positions
+            .get(v as usize)
+            .is_some_and(|p| p.is_finite())
+    };
+    let first_finite = (0..mesh.positions.len() as u32)
+        .find(|&v| finite(v))
+        .unwrap_or(0);
+    let mut out = mesh.clone();
+    let mut collapsed = 0;
+    for triangle in &mut out.triangles {
+        if !triangle.iter().all(|&v| finite(v)) {
+            let onto = triangle
+                .iter()
+                .copied()
+                .find(|&v| finite(v))
+                .unwrap_or(first_finite);
+            *triangle = [onto; 3];
+            collapsed += 1;
+        }
+    }
+    let fill = mesh
+        .positions
+        .get(first_finite as usize)
+        .copied()
+        .filter(|p| p.is_finite());
+    for p in &mut out.positions {
+        if !p.is_finite() {
+            *p = fill.unwrap_or(Vec3::ZERO);
+        }
+    }
+    (Cow::Owned(out), collapsed)
+}
+
+pub(super) fn write(scene: &Scene, path: &Path, binary: bool) -> std::io::Result<usize> {
     let mut bin: Vec<u8> = Vec::new();
     let mut views = Vec::new();
     let mut accessors = Vec::new();
@@ -281,7 +373,18 @@ pub(super) fn write(scene: &Scene, path: &Path, binary: bool) -> std::io::Result
         views.len() - 1
     };
     let mut meshes = Vec::new();
-    for mesh in &scene.meshes {
+    let mut collapsed = 0;
+    // glTF has no empty mesh (a primitive needs vertices, an accessor a count): a
+    // geometry without triangles is left out, and nodes placing it keep no mesh.
+    let mut gltf_mesh = vec![None; scene.meshes.len()];
+    for (index, mesh) in scene.meshes.iter().enumerate() {
+        if mesh.triangles.is_empty() {
+            continue;
+        }
+        gltf_mesh[index] = Some(meshes.len());
+        let (mesh, inactive) = without_non_finite(mesh);
+        collapsed += inactive;
+        let mesh = &mesh;
         let positions: Vec<u8> = mesh
             .positions
             .iter()
@@ -332,7 +435,10 @@ pub(super) fn write(scene: &Scene, path: &Path, binary: bool) -> std::io::Result
         .instances
         .iter()
         .map(|i| {
-            let mut node = json!({"mesh": i.mesh});
+            let mut node = json!({});
+            if let Some(mesh) = gltf_mesh[i.mesh] {
+                node["mesh"] = json!(mesh);
+            }
             if i.transform != Affine3A::IDENTITY {
                 node["matrix"] = json!(Mat4::from(i.transform).to_cols_array());
             }
@@ -377,8 +483,9 @@ pub(super) fn write(scene: &Scene, path: &Path, binary: bool) -> std::io::Result
         };
         let file = std::io::BufWriter::new(std::fs::File::create(path)?);
         glb.to_writer(file)
-            .map_err(|e| std::io::Error::other(e.to_string()))
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
     } else {
-        std::fs::write(path, json_bytes)
+        std::fs::write(path, json_bytes)?;
     }
+    Ok(collapsed)
 }

@@ -12,7 +12,10 @@
 mod gltf;
 mod obj;
 mod ply;
+mod reference;
 mod stl;
+
+pub use reference::MAX_REFERENCED_BYTES;
 
 use crate::mesh::Scene;
 use std::io::{BufRead, Read};
@@ -168,19 +171,33 @@ fn read_counted<R: BufRead>(
     Ok(scene)
 }
 
+/// What a writer changed because the format could not hold it.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct WriteNotes {
+    /// Inactive triangles (with a NaN or infinite corner) written as degenerate
+    /// triangles collapsed onto one of their finite corners: glTF forbids non-finite
+    /// positions. They keep their place in the triangle order and cover nothing.
+    pub inactive_collapsed: usize,
+}
+
 /// Write `scene` to `path` in the format its extension names. OBJ, PLY and STL hold
 /// one level: instances are flattened into world space (OBJ keeps one group per
-/// instance).
-/// glTF/GLB keep meshes, materials and instance transforms.
-pub fn write(scene: &Scene, path: &Path) -> Result<(), MeshError> {
+/// instance). glTF/GLB keep meshes, materials and instance transforms; they cannot hold
+/// NaN, so inactive triangles are collapsed ([`WriteNotes::inactive_collapsed`]).
+pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
     let format = Format::from_path(path)?;
-    let result = match format {
-        Format::Obj => obj::write(scene, path),
-        Format::Ply => ply::write(&scene.flatten(), path),
-        Format::Stl => stl::write(&scene.flatten(), path),
-        Format::Gltf | Format::Glb => gltf::write(scene, path, format == Format::Glb),
-    };
-    result.map_err(|e| MeshError::io(path, e))
+    let io_error = |e| MeshError::io(path, e);
+    let mut notes = WriteNotes::default();
+    match format {
+        Format::Obj => obj::write(scene, path).map_err(io_error)?,
+        Format::Ply => ply::write(&scene.flatten(), path).map_err(io_error)?,
+        Format::Stl => stl::write(&scene.flatten(), path).map_err(io_error)?,
+        Format::Gltf | Format::Glb => {
+            notes.inactive_collapsed =
+                gltf::write(scene, path, format == Format::Glb).map_err(io_error)?;
+        }
+    }
+    Ok(notes)
 }
 
 /// Every reader ends here: no index may point past its mesh's vertices, no instance past

@@ -2,8 +2,10 @@
 //! models of one name are one geometry, so `usemtl` switches inside a group keep the
 //! group whole); polygons are fan-triangulated here so that a face with fewer than three
 //! vertices is an error with its line, not a silently dropped face. Materials come from
-//! the `mtllib` files beside the OBJ when present: `map_d` or `d < 1` marks them
-//! alpha-tested. A missing `.mtl` is not an error (many files ship without one).
+//! the `mtllib` files beside the OBJ when present, read by the rule for references
+//! (`reference.rs`: inside the OBJ's folder, regular files, size-limited): `map_d` or
+//! `d < 1` marks them alpha-tested. A missing `.mtl` is not an error (many files ship
+//! without one); one that breaks the rule is.
 
 use super::{CountingReader, MeshError};
 use crate::mesh::{Material, Scene, TriMesh};
@@ -26,13 +28,28 @@ pub(super) fn read<R: BufRead>(
         ignore_points: false,
         ignore_lines: false,
     };
-    let directory = path.parent().map(Path::to_owned).unwrap_or_default();
     let mut ignore = |_: u64, _: u64| {};
     let mut lines = CountingReader::new(&text[..], text.len() as u64, &mut ignore);
-    let (models, materials) = tobj::load_obj_buf(&mut lines, &options, |mtl| {
-        tobj::load_mtl(directory.join(mtl))
-    })
-    .map_err(|e| MeshError::at_line(path, lines.line(), describe(e)))?;
+    // A material library is read by the rule for references (`reference.rs`); one that
+    // breaks it is an error, a missing one is not (many files ship without it).
+    let refused = std::cell::RefCell::new(None);
+    let (models, materials) =
+        tobj::load_obj_buf(
+            &mut lines,
+            &options,
+            |mtl| match super::reference::read_referenced(path, &mtl.to_string_lossy()) {
+                Ok(Some(bytes)) => tobj::load_mtl_buf(&mut &bytes[..]),
+                Ok(None) => Err(tobj::LoadError::OpenFileFailed),
+                Err(error) => {
+                    refused.borrow_mut().get_or_insert(error);
+                    Err(tobj::LoadError::OpenFileFailed)
+                }
+            },
+        )
+        .map_err(|e| MeshError::at_line(path, lines.line(), describe(e)))?;
+    if let Some(error) = refused.into_inner() {
+        return Err(error);
+    }
     let materials = materials.unwrap_or_default();
 
     let mut scene = Scene {

@@ -386,3 +386,35 @@ fn stl_round_trip_keeps_corners_and_order_bit_exact() {
         corner_bits(&back)
     );
 }
+
+#[test]
+fn gltf_writes_inactive_triangles_as_collapsed_degenerates_not_nan() {
+    let mut mesh = scenes::quad_grid(2);
+    let nan = mesh.positions.len() as u32;
+    mesh.positions.push(glam::Vec3::NAN);
+    // Triangle 1 made inactive as repair does (all corners on a NaN vertex), triangle 3
+    // with one NaN corner as a file may have it.
+    mesh.triangles[1] = [nan; 3];
+    let [a, b, _] = mesh.triangles[3];
+    mesh.triangles[3] = [a, b, nan];
+    let scene = Scene::from_mesh(mesh.clone());
+    for extension in ["glb", "gltf"] {
+        let back = round_trip(&scene, extension);
+        let out = &back.meshes[0];
+        assert!(out.positions.iter().all(|p| p.is_finite()), "{extension}");
+        assert_eq!(out.triangle_count(), mesh.triangle_count());
+        for t in 0..mesh.triangle_count() {
+            let [p, q, r] = out.corners(t);
+            if t == 1 || t == 3 {
+                assert!(p == q && q == r, "triangle {t} collapsed to a point");
+            } else {
+                assert_eq!(out.corners(t), mesh.corners(t), "triangle {t}");
+            }
+        }
+        assert_eq!(
+            out.corners(3)[0],
+            mesh.positions[a as usize],
+            "onto a finite corner"
+        );
+    }
+}

@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Write the glTF/GLB files that rtmesh's writing commands make (convert, pair -o,
+# repair -o, inactive triangles, instances, the real glTFs) into the folder $1, for the
+# glTF-Validator to check. Needs the release binary and RTMESH_DATA.
+set -euo pipefail
+out="$1"
+rtmesh="${RTMESH:-target/release/rtmesh}"
+data="${RTMESH_DATA:?set RTMESH_DATA}"
+mkdir -p "$out"
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\nf 1 1 2\nf 1 2 3\n' > "$out/degenerate.obj"
+run() { "$rtmesh" "$@" > /dev/null; }
+for ext in glb gltf; do
+  run convert builtin:room "$out/room.$ext"
+  run convert builtin:blob "$out/blob.$ext"
+  run pair builtin:room -o "$out/room-paired.$ext" --no-prescan
+  run repair builtin:room --split-scattered --merge-overlapping -o "$out/room-repaired.$ext" --size 0x0
+  run repair builtin:cylinder --split-elongated --force-split -o "$out/cylinder-split.$ext" --size 0x0
+  run repair "$out/degenerate.obj" --inactive --keep-duplicates -o "$out/inactive.$ext" --size 0x0 2> /dev/null
+done
+run convert "$data/2CylinderEngine.glb" "$out/engine.glb"
+run pair "$data/2CylinderEngine.glb" -o "$out/engine-paired.glb"
+run repair "$data/2CylinderEngine.glb" -o "$out/engine-repaired.glb" --size 0x0
+run convert "$data/sponza_dabrovic.obj" "$out/sponza.gltf"
+run pair "$data/spot.obj" -o "$out/spot-paired.glb"
+for model in "$data"/animated/*.gl*; do
+  name="$(basename "${model%.*}")"
+  run convert "$model" "$out/animated-$name.glb"
+  run pair "$model" -o "$out/animated-$name-paired.gltf"
+done

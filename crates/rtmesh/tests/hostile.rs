@@ -1,0 +1,124 @@
+//! Hostile assets: references that leave the asset's folder are refused, naming the
+//! asset and the reference, and nothing outside the folder is read (a canary file
+//! beside the folder must never show up in what is read).
+
+use std::path::{Path, PathBuf};
+
+/// A fresh folder `root/asset/` with a canary file at `root/canary.bin` beside it.
+fn sandbox(name: &str) -> (PathBuf, PathBuf) {
+    let root = std::env::temp_dir().join(format!("rtmesh-hostile-{}-{name}", std::process::id()));
+    let asset = root.join("asset");
+    std::fs::create_dir_all(&asset).unwrap();
+    // 36 bytes: three float VEC3 positions, if anyone reads it as a buffer.
+    std::fs::write(root.join("canary.bin"), [0x41u8; 36]).unwrap();
+    std::fs::write(root.join("canary.mtl"), "newmtl stolen\nd 0.5\n").unwrap();
+    (root, asset)
+}
+
+/// A glTF of one triangle whose buffer is `uri`.
+fn gltf_with_buffer(uri: &str) -> String {
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{uri}","byteLength":36}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0}}"#
+    )
+}
+
+fn error_reading(path: &Path) -> String {
+    match rtmesh::io::read(path) {
+        Ok(scene) => panic!("{}: read {} meshes", path.display(), scene.meshes.len()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn obj_material_libraries_outside_the_folder_are_refused() {
+    let (root, asset) = sandbox("obj");
+    for (name, mtllib) in [
+        ("absolute.obj", "/etc/passwd".to_owned()),
+        ("climbs.obj", "../canary.mtl".to_owned()),
+        ("device.obj", "/dev/zero".to_owned()),
+    ] {
+        let obj = asset.join(name);
+        std::fs::write(
+            &obj,
+            format!("mtllib {mtllib}\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"),
+        )
+        .unwrap();
+        let message = error_reading(&obj);
+        assert!(
+            message.contains(name) && message.contains(&format!("refers to '{mtllib}'")),
+            "{message}"
+        );
+    }
+    // Inside the folder, and missing: both fine.
+    std::fs::write(asset.join("ok.mtl"), "newmtl glass\nd 0.5\n").unwrap();
+    let obj = asset.join("ok.obj");
+    std::fs::write(
+        &obj,
+        "mtllib ok.mtl\nmtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl glass\nf 1 2 3\n",
+    )
+    .unwrap();
+    let scene = rtmesh::io::read(&obj).unwrap();
+    assert!(scene
+        .materials
+        .iter()
+        .any(|m| m.name == "glass" && m.alpha_tested));
+    std::fs::remove_dir_all(&root).ok();
+}
+
+#[test]
+fn gltf_buffers_outside_the_folder_are_refused() {
+    let (root, asset) = sandbox("gltf");
+    #[cfg(unix)]
+    {
+        std::os::unix::fs::symlink(root.join("canary.bin"), asset.join("link.bin")).unwrap();
+        std::os::unix::fs::symlink("/dev/zero", asset.join("zero.bin")).unwrap();
+    }
+    for (name, uri, says) in [
+        ("climbs.gltf", "../canary.bin", "climbs out"),
+        ("escaped.gltf", "%2e%2e/canary.bin", "climbs out"),
+        ("absolute.gltf", "/dev/zero", "absolute"),
+        ("scheme.gltf", "file:///etc/passwd", "absolute"),
+        #[cfg(unix)]
+        ("link.gltf", "link.bin", "through a link"),
+        #[cfg(unix)]
+        ("zero.gltf", "zero.bin", "not a regular file"),
+    ] {
+        let file = asset.join(name);
+        std::fs::write(&file, gltf_with_buffer(uri)).unwrap();
+        let message = error_reading(&file);
+        assert!(
+            message.contains(name) && message.contains("refers to '") && message.contains(says),
+            "{name}: {message}"
+        );
+    }
+    std::fs::remove_dir_all(&root).ok();
+}
+
+#[test]
+fn gltf_buffers_beside_the_file_and_data_uris_read() {
+    let (root, asset) = sandbox("fine");
+    let corners: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|c| c.to_le_bytes())
+        .collect();
+    std::fs::write(asset.join("tri angle.bin"), &corners).unwrap();
+    let file = asset.join("beside.gltf");
+    std::fs::write(&file, gltf_with_buffer("tri%20angle.bin")).unwrap();
+    let scene = rtmesh::io::read(&file).unwrap();
+    assert_eq!(scene.meshes[0].positions[1], glam::Vec3::X);
+    // A data: URI (base64 of the same 36 bytes).
+    let encoded = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+    let file = asset.join("inline.gltf");
+    std::fs::write(
+        &file,
+        gltf_with_buffer(&format!("data:application/octet-stream;base64,{encoded}")),
+    )
+    .unwrap();
+    let scene = rtmesh::io::read(&file).unwrap();
+    assert_eq!(scene.meshes[0].positions[2], glam::Vec3::Y);
+    std::fs::remove_dir_all(&root).ok();
+}
