@@ -92,6 +92,7 @@ fn info_convert_pair_lint_repair_keys() {
         "welded_vertices",
         "zero_area_triangles",
         "strip_degenerates_dropped",
+        "ignored_line_and_point_statements",
     ];
     assert_keys(&["info", "builtin:grid", "--json"], &info);
     let glb = dir.join("room.glb");

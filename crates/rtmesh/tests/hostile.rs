@@ -122,3 +122,88 @@ fn gltf_buffers_beside_the_file_and_data_uris_read() {
     assert_eq!(scene.meshes[0].positions[2], glam::Vec3::Y);
     std::fs::remove_dir_all(&root).ok();
 }
+
+/// A glTF of one triangle in a data: URI, with the nodes and buffer view given.
+fn gltf_with(nodes: &str, roots: &str, view_extra: &str) -> Vec<u8> {
+    let encoded = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+    format!(
+        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"data:application/octet-stream;base64,{encoded}","byteLength":36}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36{view_extra}}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "nodes":{nodes},"scenes":[{{"nodes":{roots}}}],"scene":0}}"#
+    )
+    .into_bytes()
+}
+
+fn error_of(name: &str, bytes: &[u8]) -> String {
+    match rtmesh::io::read_bytes(Path::new(name), bytes) {
+        Ok(scene) => panic!("{name}: read {} instances", scene.instances.len()),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn node_graphs_with_cycles_are_errors_and_deep_chains_are_exact() {
+    let twice = error_of(
+        "twice.gltf",
+        &gltf_with(r#"[{"mesh":0,"children":[0,0]}]"#, "[0]", ""),
+    );
+    assert!(
+        twice.starts_with("twice.gltf: node 0 is listed as a child of node 0"),
+        "{twice}"
+    );
+    let own = error_of(
+        "own.gltf",
+        &gltf_with(r#"[{"mesh":0,"children":[1]},{"children":[0]}]"#, "[0]", ""),
+    );
+    assert!(
+        own.contains("node 0 is listed as a child of node 1") || own.contains("cycle"),
+        "{own}"
+    );
+    let self_child = error_of(
+        "self.gltf",
+        &gltf_with(r#"[{"mesh":0,"children":[0]}]"#, "[0]", ""),
+    );
+    assert!(
+        self_child.starts_with("self.gltf: node 0 is reached twice"),
+        "{self_child}"
+    );
+    // 10,000 nested nodes, each one unit along x: one instance at x = 10,000.
+    let depth = 10_000;
+    let nodes: Vec<String> = (0..depth)
+        .map(|i| {
+            if i + 1 < depth {
+                format!(r#"{{"translation":[1,0,0],"children":[{}]}}"#, i + 1)
+            } else {
+                r#"{"translation":[1,0,0],"mesh":0}"#.to_owned()
+            }
+        })
+        .collect();
+    let scene = rtmesh::io::read_bytes(
+        Path::new("deep.gltf"),
+        &gltf_with(&format!("[{}]", nodes.join(",")), "[0]", ""),
+    )
+    .unwrap();
+    assert_eq!(scene.instances.len(), 1);
+    assert_eq!(scene.instances[0].transform.translation.x, depth as f32);
+    assert_eq!(scene.bounds().max.x, depth as f32 + 1.0);
+}
+
+#[test]
+fn odd_strides_are_errors_not_panics() {
+    // 7 and 256 the gltf crate's own validation refuses; 8 is valid glTF but shorter than a
+    // 12-byte element, which rtmesh refuses before the crate reads it.
+    for (stride, says) in [(7, "byteStride"), (8, "byteStride 8"), (256, "byteStride")] {
+        let bytes = gltf_with(
+            r#"[{"mesh":0}]"#,
+            "[0]",
+            &format!(r#","byteStride":{stride}"#),
+        );
+        let message = error_of("stride.gltf", &bytes);
+        assert!(
+            message.starts_with("stride.gltf: ") && message.contains(says),
+            "{message}"
+        );
+    }
+}

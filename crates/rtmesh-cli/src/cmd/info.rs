@@ -64,4 +64,10 @@ pub fn print(name: &str, info: &MeshInfo) {
             info.strip_degenerates_dropped
         );
     }
+    if info.ignored_line_and_point_statements > 0 {
+        println!(
+            "  ignored            {:>10} OBJ line and point statements (not triangles)",
+            info.ignored_line_and_point_statements
+        );
+    }
 }

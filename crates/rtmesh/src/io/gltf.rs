@@ -7,15 +7,12 @@
 
 use super::{CountingReader, MeshError};
 use crate::mesh::{Instance, Material, Scene, TriMesh};
-use glam::{Affine3A, Mat4, Vec3};
+use glam::{Affine3A, DMat4, Mat4, Vec3};
 use gltf::mesh::Mode;
 use serde_json::json;
 use std::borrow::Cow;
 use std::io::{BufRead, Read};
 use std::path::Path;
-
-/// Deepest node hierarchy followed (guards against cycles in malformed files).
-const MAX_NODE_DEPTH: usize = 256;
 
 pub(super) fn read<R: BufRead>(
     path: &Path,
@@ -153,9 +150,7 @@ pub(super) fn read<R: BufRead>(
         Some(s) => s.nodes().collect(),
         None => Vec::new(),
     };
-    for node in roots {
-        place_nodes(&node, Affine3A::IDENTITY, 0, &mut scene.instances);
-    }
+    scene.instances = place_nodes(path, &document, &roots)?;
     if scene.instances.is_empty() {
         // No scene graph: show every mesh once, untransformed.
         scene.instances = (0..scene.meshes.len())
@@ -237,21 +232,60 @@ fn check_position_references(root: &gltf::json::Root) -> Result<(), String> {
     Ok(())
 }
 
-fn place_nodes(node: &gltf::Node, parent: Affine3A, depth: usize, instances: &mut Vec<Instance>) {
-    if depth > MAX_NODE_DEPTH {
-        return;
+/// The instances of the node trees under `roots`: every node that holds a mesh, with its
+/// world transform (the product of its ancestors' local transforms, accumulated in f64).
+/// The walk is iterative, so any depth is followed; a node listed as a child twice, or
+/// by two parents, or reached twice from the roots (a cycle) is an error naming it.
+fn place_nodes(
+    path: &Path,
+    document: &gltf::Document,
+    roots: &[gltf::Node],
+) -> Result<Vec<Instance>, MeshError> {
+    let nodes: Vec<gltf::Node> = document.nodes().collect();
+    let mut parent: Vec<Option<usize>> = vec![None; nodes.len()];
+    for node in &nodes {
+        for child in node.children() {
+            if let Some(first) = parent[child.index()].replace(node.index()) {
+                return Err(MeshError::invalid(
+                    path,
+                    format!(
+                        "node {} is listed as a child of node {first} and again of node {}: glTF nodes form trees",
+                        child.index(),
+                        node.index()
+                    ),
+                ));
+            }
+        }
     }
-    let local = Affine3A::from_mat4(Mat4::from_cols_array_2d(&node.transform().matrix()));
-    let world = parent * local;
-    if let Some(mesh) = node.mesh() {
-        instances.push(Instance {
-            mesh: mesh.index(),
-            transform: world,
-        });
+    let mut placed = vec![false; nodes.len()];
+    let mut instances = Vec::new();
+    let mut stack: Vec<(usize, DMat4)> = roots
+        .iter()
+        .rev()
+        .map(|r| (r.index(), DMat4::IDENTITY))
+        .collect();
+    while let Some((index, parent_world)) = stack.pop() {
+        if std::mem::replace(&mut placed[index], true) {
+            return Err(MeshError::invalid(
+                path,
+                format!("node {index} is reached twice from the scene's roots: the node graph has a cycle"),
+            ));
+        }
+        let node = &nodes[index];
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
+        let world = parent_world * local;
+        if let Some(mesh) = node.mesh() {
+            instances.push(Instance {
+                mesh: mesh.index(),
+                transform: Affine3A::from_mat4(world.as_mat4()),
+            });
+        }
+        let first_child = stack.len();
+        stack.extend(node.children().map(|c| (c.index(), world)));
+        // Last pushed is first walked: children in their listed order.
+        stack[first_child..].reverse();
     }
-    for child in node.children() {
-        place_nodes(&child, world, depth + 1, instances);
-    }
+    Ok(instances)
 }
 
 /// Triangles from a primitive's corner list, in order.
@@ -298,7 +332,26 @@ fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> 
         ));
     }
     let element = accessor.size();
-    let stride = view.stride().unwrap_or(element).max(element);
+    let component = accessor.data_type().size();
+    if let Some(stride) = view.stride() {
+        if stride < element || stride % component != 0 || stride > 252 {
+            return Err(format!(
+                "buffer view {} has byteStride {stride}, which is not a multiple of {component} in {element}..=252 (accessor {} has {element}-byte elements)",
+                view.index(),
+                accessor.index()
+            ));
+        }
+    }
+    if accessor.offset() % component != 0 || view.offset() % component != 0 {
+        return Err(format!(
+            "accessor {} starts at byte {} of buffer view {} (at byte {}), not aligned to its {component}-byte components",
+            accessor.index(),
+            accessor.offset(),
+            view.index(),
+            view.offset()
+        ));
+    }
+    let stride = view.stride().unwrap_or(element);
     let needed = match accessor.count() {
         0 => Some(0),
         n => (n - 1)

@@ -22,6 +22,7 @@ pub(super) fn read<R: BufRead>(
         .read_to_end(&mut text)
         .map_err(|e| MeshError::io(path, e))?;
     check_attribute_indices(path, &text)?;
+    let (text, ignored_lines, ignored_points) = without_lines_and_points(text);
     let options = tobj::LoadOptions {
         single_index: false,
         triangulate: false,
@@ -131,13 +132,44 @@ pub(super) fn read<R: BufRead>(
     }
     scene.source_vertex_count = Some(
         text.split(|&b| b == b'\n')
-            .filter(|line| line.trim_ascii_start().starts_with(b"v "))
+            .filter(|line| statement_is(line, b"v"))
             .count(),
     );
+    scene.read_notes.ignored_lines = ignored_lines;
+    scene.read_notes.ignored_points = ignored_points;
     if needs_default || scene.materials.is_empty() {
         scene.materials.push(Material::default());
     }
     Ok(scene)
+}
+
+/// Whether `line` is a statement of `keyword`.
+fn statement_is(line: &[u8], keyword: &[u8]) -> bool {
+    let line = line.trim_ascii_start();
+    line.starts_with(keyword) && line.get(keyword.len()).is_none_or(u8::is_ascii_whitespace)
+}
+
+/// `text` with its `l` (polyline) and `p` (point) statements blanked, their line breaks
+/// kept so that line numbers stay right, and how many of each there were. They are not
+/// triangles: tobj would turn a polyline of three or more vertices into a face.
+fn without_lines_and_points(mut text: Vec<u8>) -> (Vec<u8>, usize, usize) {
+    let (mut lines, mut points) = (0, 0);
+    let mut start = 0;
+    while start < text.len() {
+        let end = text[start..]
+            .iter()
+            .position(|&b| b == b'\n')
+            .map_or(text.len(), |n| start + n);
+        let line = &text[start..end];
+        let (is_line, is_point) = (statement_is(line, b"l"), statement_is(line, b"p"));
+        if is_line || is_point {
+            lines += is_line as usize;
+            points += is_point as usize;
+            text[start..end].fill(b' ');
+        }
+        start = end + 1;
+    }
+    (text, lines, points)
 }
 
 fn describe(error: tobj::LoadError) -> String {
@@ -152,14 +184,15 @@ fn describe(error: tobj::LoadError) -> String {
     }
 }
 
-/// Texture coordinate and normal indices of faces (and lines and points) that tobj
-/// 4.0.5 would multiply without an overflow check: 0, a relative index before the first
-/// `vt` / `vn`, or one past 2³². In a debug build such a file panics inside tobj, in a
-/// release build the index wraps; here it is an error at its line. (Positions, which
-/// tobj checks, and indices past the attributes read so far, which it reports when the
-/// group ends, are left to tobj.)
+/// Face indices checked at their own line before tobj sees them: a vertex index must
+/// name a vertex read so far (tobj reports a bad one only where its group ends, lines
+/// later), and texture coordinate and normal indices that tobj 4.0.5 would multiply
+/// without an overflow check (0, a relative index before the first `vt` / `vn`, or one
+/// past 2³²: a panic in a debug build, a wrapped index in a release one) are errors.
+/// (Texture coordinate and normal indices past those read so far are left to tobj.)
+/// `l` and `p` statements are ignored, so they are not checked.
 fn check_attribute_indices(path: &Path, text: &[u8]) -> Result<(), MeshError> {
-    let (mut texcoords, mut normals) = (0i64, 0i64);
+    let (mut positions, mut texcoords, mut normals) = (0i64, 0i64, 0i64);
     for (number, line) in text.split(|&b| b == b'\n').enumerate() {
         // tobj reports lines that are not UTF-8.
         let Ok(line) = std::str::from_utf8(line) else {
@@ -167,12 +200,25 @@ fn check_attribute_indices(path: &Path, text: &[u8]) -> Result<(), MeshError> {
         };
         let mut words = line.split_whitespace();
         match words.next() {
+            Some("v") => positions += 1,
             Some("vt") => texcoords += 1,
             Some("vn") => normals += 1,
-            Some("f" | "l" | "p") => {
+            Some("f") => {
                 for word in words {
+                    let mut parts = word.split('/');
+                    // A vertex index must name a vertex read so far (tobj would report
+                    // it only where the group ends).
+                    let vertex = parts.next().and_then(|p| p.parse::<i64>().ok());
+                    if let Some(x) = vertex.filter(|&x| x == 0 || x < -positions || x > positions) {
+                        return Err(MeshError::at_line(
+                            path,
+                            number + 1,
+                            format!(
+                                "face vertex index {x} is out of range ({positions} read so far)"
+                            ),
+                        ));
+                    }
                     // v/vt/vn: the second and third parts.
-                    let mut parts = word.split('/').skip(1);
                     for (count, what) in [(texcoords, "texture coordinate"), (normals, "normal")] {
                         let index = parts.next().and_then(|p| p.parse::<i64>().ok());
                         if let Some(x) =

@@ -217,10 +217,19 @@ pub(super) fn read<R: BufRead>(
         }
         remaining -= needed;
     }
-    if !header.elements.contains_key("vertex") {
+    let Some(vertex) = header.elements.get("vertex") else {
         return Err(MeshError::invalid(
             path,
             "no 'vertex' element in the header",
+        ));
+    };
+    if let Some(axis) = ["x", "y", "z"]
+        .into_iter()
+        .find(|axis| !vertex.properties.contains_key(*axis))
+    {
+        return Err(MeshError::invalid(
+            path,
+            format!("'vertex' element has no '{axis}' property: positions need x, y and z"),
         ));
     }
 

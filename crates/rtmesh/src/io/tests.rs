@@ -46,7 +46,7 @@ fn obj_errors_name_file_and_line() {
             "bad.obj:5: face normal index -2 is out of range (1 read so far)",
         ),
         (
-            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nl 1//1 2//4294967296\n",
+            b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//4294967296 3//1\n",
             "bad.obj:5: face normal index 4294967296 is out of range (1 read so far)",
         ),
     ];
@@ -417,4 +417,54 @@ fn gltf_writes_inactive_triangles_as_collapsed_degenerates_not_nan() {
             "onto a finite corner"
         );
     }
+}
+
+#[test]
+fn obj_bad_vertex_index_is_reported_at_its_own_line() {
+    // The bad face is on line 5, inside a group that runs to line 35.
+    let mut obj = String::from("g part\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n");
+    for i in 0..30 {
+        obj.push_str(&format!("v {i} 1 1\n"));
+    }
+    let message = error_of("group.obj", obj.as_bytes());
+    assert!(
+        message.starts_with("group.obj:5: face vertex index 9 is out of range (3 read so far)"),
+        "{message}"
+    );
+    let message = error_of("rel.obj", b"v 0 0 0\nv 1 0 0\nf -1 -2 -3\n");
+    assert!(
+        message.starts_with("rel.obj:3: face vertex index -3"),
+        "{message}"
+    );
+}
+
+#[test]
+fn obj_lines_and_points_are_ignored_and_counted() {
+    let obj = b"v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nl 1 2 3 4\np 1 2\np 4\nf 1 2 3\n";
+    let scene = read_bytes(Path::new("lines.obj"), obj).unwrap();
+    assert_eq!(
+        scene
+            .meshes
+            .iter()
+            .map(TriMesh::triangle_count)
+            .sum::<usize>(),
+        1
+    );
+    assert_eq!(
+        (
+            scene.read_notes.ignored_lines,
+            scene.read_notes.ignored_points
+        ),
+        (1, 2)
+    );
+}
+
+#[test]
+fn ply_vertices_without_x_y_and_z_are_errors() {
+    let ply = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0\n0 1\n3 0 1 2\n";
+    let message = error_of("flat.ply", ply);
+    assert!(
+        message.starts_with("flat.ply: 'vertex' element has no 'z' property"),
+        "{message}"
+    );
 }

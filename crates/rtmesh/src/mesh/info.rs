@@ -44,6 +44,8 @@ pub struct MeshInfo {
     pub zero_area_triangles: usize,
     /// Degenerate triangles of PLY triangle strips (swaps and joins) dropped on reading.
     pub strip_degenerates_dropped: usize,
+    /// OBJ `l` and `p` statements ignored on reading (not triangles).
+    pub ignored_line_and_point_statements: usize,
 }
 
 impl MeshInfo {
@@ -71,6 +73,8 @@ impl MeshInfo {
             repeated_vertex_triangles: validation.repeated_vertices.len(),
             zero_area_triangles: validation.zero_area.len(),
             strip_degenerates_dropped: scene.read_notes.strip_degenerates_dropped,
+            ignored_line_and_point_statements: scene.read_notes.ignored_lines
+                + scene.read_notes.ignored_points,
         }
     }
 }

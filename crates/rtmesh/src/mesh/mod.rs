@@ -166,6 +166,10 @@ pub struct ReadNotes {
     /// Triangles of PLY `tristrips` that name a vertex twice: the swaps and joins that
     /// stitch a generalized strip together, which cover no surface. Dropped.
     pub strip_degenerates_dropped: usize,
+    /// OBJ `l` (polyline) statements: not triangles, so ignored.
+    pub ignored_lines: usize,
+    /// OBJ `p` (point) statements: not triangles, so ignored.
+    pub ignored_points: usize,
 }
 
 impl Scene {
