@@ -334,7 +334,7 @@ fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> 
     let element = accessor.size();
     let component = accessor.data_type().size();
     if let Some(stride) = view.stride() {
-        if stride < element || stride % component != 0 || stride > 252 {
+        if stride < element || !stride.is_multiple_of(component) || stride > 252 {
             return Err(format!(
                 "buffer view {} has byteStride {stride}, which is not a multiple of {component} in {element}..=252 (accessor {} has {element}-byte elements)",
                 view.index(),
@@ -342,7 +342,7 @@ fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> 
             ));
         }
     }
-    if accessor.offset() % component != 0 || view.offset() % component != 0 {
+    if !accessor.offset().is_multiple_of(component) || !view.offset().is_multiple_of(component) {
         return Err(format!(
             "accessor {} starts at byte {} of buffer view {} (at byte {}), not aligned to its {component}-byte components",
             accessor.index(),
