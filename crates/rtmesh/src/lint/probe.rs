@@ -33,9 +33,20 @@ pub(super) struct Crossing {
 /// Barycentric margin of an interior crossing.
 const EDGE_MARGIN: f32 = 1e-3;
 
+/// The most crossings a probe ray collects: past them it stops, so that a stack of a
+/// million copies costs a probe ray about this many triangle tests, not a million
+/// (counts of layers then read "at least").
+pub(super) const MAX_CROSSINGS: usize = 1024;
+
+/// The most triangle tests a probe ray makes, crossings or not: rays through the boxes
+/// of a million copies that miss them stop here too. Probes of real meshes never come
+/// near it (a few hundred tests at most).
+pub(super) const MAX_TESTS: usize = 1 << 14;
+
 /// Every triangle that each of `width` × `height` primary rays from the default camera
-/// crosses, reduced by `per_ray`. The crossings come from an any-hit traversal that
-/// never stops, through the TLAS to every placement whose box the ray meets.
+/// crosses (up to [`MAX_CROSSINGS`], in at most [`MAX_TESTS`] triangle tests), reduced
+/// by `per_ray`. The crossings come from an any-hit traversal that stops only at a cap,
+/// through the TLAS to every placement whose box the ray meets.
 pub(super) fn probe_crossings<R: Send>(
     scene: &Scene,
     width: usize,
@@ -55,8 +66,9 @@ pub(super) fn probe_crossings<R: Send>(
         .map(|ray| {
             let query = RayQuery::new(ray);
             let mut crossed = Vec::new();
+            let mut tests = 0usize;
             // The crossings with placement `instance`, whose inverse is `to_object`.
-            let mut cross = |instance: usize, to_object: &glam::Affine3A| {
+            let mut cross = |instance: usize, to_object: &glam::Affine3A| -> bool {
                 let placement = &scene.instances[instance];
                 let local = transform_query(&query, to_object);
                 let alpha = &scene.meshes[placement.mesh].alpha_tested;
@@ -67,6 +79,7 @@ pub(super) fn probe_crossings<R: Send>(
                     &mut NoCounters,
                     |blocks, t_max, _| {
                         for block in blocks {
+                            tests += block.count() as usize;
                             for lane in 0..block.count() as usize {
                                 let triangle = block.triangle(lane);
                                 if let Some((t, u, v)) = triangle.intersect(&local, t_max) {
@@ -86,13 +99,15 @@ pub(super) fn probe_crossings<R: Send>(
                                 }
                             }
                         }
-                        false
+                        crossed.len() >= MAX_CROSSINGS || tests >= MAX_TESTS
                     },
-                );
+                )
             };
             match &accel.tlas {
                 // One untransformed placement.
-                None => cross(0, &glam::Affine3A::IDENTITY),
+                None => {
+                    cross(0, &glam::Affine3A::IDENTITY);
+                }
                 Some(tlas) => {
                     any_hit::<Portable, _, _>(
                         tlas,
@@ -100,10 +115,9 @@ pub(super) fn probe_crossings<R: Send>(
                         ray.t_max,
                         &mut NoCounters,
                         |leaves, _, _| {
-                            for leaf in leaves {
-                                cross(leaf.instance as usize, &leaf.world_to_object);
-                            }
-                            false
+                            leaves
+                                .iter()
+                                .any(|leaf| cross(leaf.instance as usize, &leaf.world_to_object))
                         },
                     );
                 }

@@ -292,6 +292,10 @@ pub fn measure_by_kind(
 pub struct BeforeAfter {
     /// Workload kind.
     pub workload: &'static str,
+    /// Image width traced (below the asked one when the time budget said so).
+    pub width: usize,
+    /// Image height traced.
+    pub height: usize,
     /// Rays traced.
     pub rays: usize,
     /// Box tests per ray before.
@@ -308,13 +312,57 @@ pub struct BeforeAfter {
     pub mrays_after: f64,
 }
 
+/// Seconds that [`before_after`] aims to spend tracing, all rounds of both scenes and
+/// both workloads together. A scene whose rays cost little (any real mesh at 512²)
+/// stays far below it; one that costs much (a million copies of one triangle, a book of
+/// 100,000 pages on one edge) is traced with fewer rays instead of for minutes.
+pub const MEASURE_BUDGET_SECONDS: f64 = 2.0;
+
+/// The image size, at most `width` × `height` and of the same aspect, whose rays of
+/// `kind` through `before` and `after` fit `seconds` over `traces` traces of each. The
+/// cost per pixel comes from pilots that start 16 pixels wide and double their width
+/// while a pilot takes under 20 ms (a tiny pilot measures the thread pool's start more
+/// than the rays).
+fn budgeted_size(
+    kind: RayKind,
+    scenes: (&Scene, &SceneAccel, &SceneAccel),
+    (width, height): (usize, usize),
+    traces: usize,
+    seconds: f64,
+) -> (usize, usize) {
+    let (before, accel_before, accel_after) = scenes;
+    let mut pilot_width = width.min(16);
+    let per_pixel = loop {
+        let pilot_height = (height * pilot_width / width).max(1);
+        let pilot = Workload::generate(kind, before, accel_before, pilot_width, pilot_height, 1);
+        let start = std::time::Instant::now();
+        for accel in [accel_before, accel_after] {
+            std::hint::black_box(trace_closest::<NoCounters>(accel, &pilot.rays));
+        }
+        let spent = start.elapsed().as_secs_f64();
+        if spent >= 0.02 || pilot_width == width {
+            break spent / (pilot_width * pilot_height) as f64;
+        }
+        pilot_width = (2 * pilot_width).min(width);
+    };
+    let planned = per_pixel * (width * height) as f64 * traces as f64;
+    if planned <= seconds {
+        return (width, height);
+    }
+    let scale = (seconds / planned).sqrt();
+    let side = |n: usize| ((n as f64 * scale) as usize).clamp(1, n);
+    (side(width), side(height))
+}
+
 /// Trace the same primary and diffuse rays (generated on `before`) through `before`
 /// and `after` at `width` × `height`, alternating `runs` rounds: medians and counts
-/// per ray. Reports its steps (the builds, then each round of each workload).
+/// per ray. Where that would take more than [`MEASURE_BUDGET_SECONDS`], fewer rays
+/// are traced (the image shrinks, its aspect kept; each row says its size). Reports its
+/// steps (the builds, then each round of each workload).
 pub fn before_after(
     before: &Scene,
     after: &Scene,
-    (width, height): (usize, usize),
+    size: (usize, usize),
     runs: usize,
     progress: &dyn Progress,
 ) -> Vec<BeforeAfter> {
@@ -324,10 +372,23 @@ pub fn before_after(
     let accel_before = SceneAccel::build(before, &BuildSettings::default());
     let accel_after = SceneAccel::build(after, &BuildSettings::default());
     progress.advance(1);
+    // Each round traces each scene twice, timed then counted; the secondary rays are
+    // generated from primary rays at their own size, so the primary budget bounds both.
+    let traces = 2 * runs.max(1);
+    let share = MEASURE_BUDGET_SECONDS / WORKLOADS.len() as f64;
+    let scenes = (before, &accel_before, &accel_after);
+    let primary_size = budgeted_size(RayKind::Primary, scenes, size, traces + 1, share);
     WORKLOADS
         .into_iter()
         .map(|kind| {
             progress.message(&format!("tracing {} rays before and after", kind.name()));
+            let (width, height) = match kind {
+                RayKind::Primary => primary_size,
+                _ => {
+                    let own = budgeted_size(kind, scenes, primary_size, traces, share);
+                    (own.0.min(primary_size.0), own.1.min(primary_size.1))
+                }
+            };
             let work = Workload::generate(kind, before, &accel_before, width, height, 1);
             let (mut a, mut b) = (Vec::new(), Vec::new());
             for _ in 0..runs.max(1) {
@@ -340,6 +401,8 @@ pub fn before_after(
             let rays = work.rays.len();
             BeforeAfter {
                 workload: kind.name(),
+                width,
+                height,
                 rays,
                 box_before: a[0].box_tests_per_ray,
                 box_after: b[0].box_tests_per_ray,
