@@ -30,10 +30,13 @@ pub(super) fn read<R: BufRead>(
         if !declared.is_some_and(|n| (12..=bytes.len()).contains(&n)) {
             return Err(MeshError::invalid(
                 path,
-                format!(
-                    "GLB header declares length {declared:?} but the file has {} bytes",
-                    bytes.len()
-                ),
+                match declared {
+                    Some(n) => format!(
+                        "GLB header declares length {n} but the file has {} bytes",
+                        bytes.len()
+                    ),
+                    None => format!("{} bytes: too short for a GLB header", bytes.len()),
+                },
             ));
         }
     }

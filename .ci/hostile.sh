@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# The hostile-input suite: every file of .ci/hostile_corpus.py through every subcommand
+# that reads a mesh, each under a 4 GB address-space cap and a 30 s limit. Asserts: no
+# panic, no crash, no time-out; `ok-*` files succeed; `error-*` and `refuse-*` files fail
+# with an error that names the file (`refuse-*`: and says which reference it refuses);
+# nothing outside the asset's folder is read (the canary's value never shows up).
+set -uo pipefail
+rtmesh="$(realpath "${RTMESH:-target/release/rtmesh}")"
+work="$(mktemp -d)"
+trap 'rm -rf "$work"' EXIT
+python3 "$(dirname "$0")/hostile_corpus.py" "$work"
+cd "$work/asset"
+subcommands=(
+  "info"
+  "lint"
+  "pair"
+  "repair --size 64x64 --runs 1"
+  "trace --size 64x64 --runs 1"
+  "render -o $work/out.png --size 64x48"
+  "convert $work/out.glb"
+)
+checked=0 failed=0
+for file in *.obj *.ply *.gltf *.glb *.stl; do
+  for subcommand in "${subcommands[@]}"; do
+    read -r -a words <<< "$subcommand"
+    out="$( (ulimit -v 4194304; timeout 30 "$rtmesh" "${words[0]}" "$file" "${words[@]:1}" --json) 2> "$work/stderr")"
+    rc=$?
+    err="$(cat "$work/stderr")"
+    checked=$((checked + 1))
+    problem=""
+    case "$rc" in
+      0|1) ;;
+      124) problem="timed out after 30 s" ;;
+      *) problem="exit code $rc (panic, abort or out of memory)" ;;
+    esac
+    if grep -q "panicked" <<< "$err"; then problem="panicked"; fi
+    case "$file" in
+      ok-*) [ "$rc" = 0 ] || problem="${problem:-failed: $err}" ;;
+      error-*) { [ "$rc" = 1 ] && grep -q "$file" <<< "$err"; } || problem="${problem:-expected an error naming the file, got rc $rc: $err}" ;;
+      refuse-*) { [ "$rc" = 1 ] && grep -q "$file" <<< "$err" && grep -q "refers to" <<< "$err"; } || problem="${problem:-expected a refused reference, got rc $rc: $err}" ;;
+    esac
+    if grep -q "12345.5" <<< "$out"; then problem="the canary outside the folder was read"; fi
+    if [ -n "$problem" ]; then
+      echo "FAIL $file / ${words[0]}: $problem"
+      failed=$((failed + 1))
+    fi
+  done
+done
+files=$(ls *.obj *.ply *.gltf *.glb *.stl | wc -l)
+echo "hostile-input suite: $files files x ${#subcommands[@]} subcommands = $checked runs, $failed failed"
+[ "$failed" = 0 ]

@@ -1,0 +1,103 @@
+"""Write the hostile-input corpus into FOLDER/asset (a canary beside it in FOLDER).
+
+File names say what rtmesh must do with each: `refuse-*` fail with an error that names
+the file and the refused reference; `error-*` fail with an error that names the file;
+`ok-*` succeed; `any-*` succeed or fail cleanly (empty files). Every class of failure in
+issue 36, and something for every reader."""
+import json, math, os, struct, sys
+
+root = sys.argv[1]
+asset = os.path.join(root, "asset")
+os.makedirs(asset, exist_ok=True)
+CANARY = 12345.5  # a position no crafted file holds: seeing it means the canary was read
+
+
+def write(name, data):
+    with open(os.path.join(asset, name), "wb" if isinstance(data, bytes) else "w") as f:
+        f.write(data)
+
+
+with open(os.path.join(root, "canary.bin"), "wb") as f:
+    f.write(struct.pack("<9f", *[CANARY] * 9))
+with open(os.path.join(root, "canary.mtl"), "w") as f:
+    f.write("newmtl stolen\nKd 1 0 0\n")
+
+triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"
+write("refuse-mtllib-absolute.obj", "mtllib /etc/passwd\n" + triangle)
+write("refuse-mtllib-climb.obj", "mtllib ../canary.mtl\n" + triangle)
+write("refuse-mtllib-device.obj", "mtllib /dev/zero\n" + triangle)
+write("error-obj-bad-index.obj", "g part\n" + triangle + "f 1 2 9\n" + "v 2 2 2\n" * 30)
+write("ok-obj-lines-and-points.obj", triangle + "l 1 2 3\np 1 2\n")
+write("ok-obj-nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
+write("any-empty.obj", "")
+
+
+def gltf(buffer_uri, nodes=None, roots=None, view_extra=None):
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": buffer_uri, "byteLength": 36}],
+        "bufferViews": [dict({"buffer": 0, "byteLength": 36}, **(view_extra or {}))],
+        "accessors": [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                       "min": [0, 0, 0], "max": [1, 1, 0]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+        "nodes": nodes or [{"mesh": 0}],
+        "scenes": [{"nodes": roots or [0]}],
+        "scene": 0,
+    }
+    return json.dumps(doc)
+
+
+corners = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
+write("ok-bare.bin", corners)
+write("ok-bare.gltf", gltf("ok-bare.bin"))
+write("refuse-buffer-climb.gltf", gltf("../canary.bin"))
+write("refuse-buffer-escaped.gltf", gltf("%2e%2e/canary.bin"))
+write("refuse-buffer-absolute.gltf", gltf(os.path.join(root, "canary.bin")))
+write("refuse-buffer-device.gltf", gltf("/dev/zero"))
+os.symlink(os.path.join(root, "canary.bin"), os.path.join(asset, "link.bin"))
+write("refuse-buffer-link.gltf", gltf("link.bin"))
+write("error-stride.gltf", gltf("ok-bare.bin", view_extra={"byteStride": 8}))
+write("error-node-twice.gltf", gltf("ok-bare.bin", nodes=[{"mesh": 0, "children": [0, 0]}]))
+write("error-node-self.gltf", gltf("ok-bare.bin", nodes=[{"mesh": 0, "children": [0]}]))
+chain = [{"translation": [1, 0, 0], "children": [i + 1]} for i in range(9999)]
+chain.append({"translation": [1, 0, 0], "mesh": 0})
+write("ok-node-chain.gltf", gltf("ok-bare.bin", nodes=chain))
+glb_json = gltf("data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA").encode()
+glb_json += b" " * (-len(glb_json) % 4)
+glb = b"glTF" + struct.pack("<II", 2, 12 + 8 + len(glb_json)) + struct.pack("<I4s", len(glb_json), b"JSON") + glb_json
+write("ok-inline.glb", glb)
+write("error-glb-lying-length.glb", glb[:8] + struct.pack("<I", 10_000_000) + glb[12:])
+write("any-empty.gltf", "")
+
+ply_header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n{}element face 1\nproperty list uchar int vertex_indices\nend_header\n"
+write("error-ply-no-z.ply", ply_header.format("") + "0 0\n1 0\n0 1\n3 0 1 2\n")
+write("error-ply-absurd-count.ply", ply_header.replace("vertex 3", "vertex 4000000000").format("property float z\n") + "0 0 0\n")
+strips = [0, 1, 2, 3, -1, 2, 3, 4, 4, 5]
+write("ok-ply-tristrips.ply",
+      "ply\nformat binary_little_endian 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\n"
+      "element tristrips 1\nproperty list int int vertex_indices\nend_header\n".encode()
+      + struct.pack("<18f", 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 2, 0, 1, 2, 0)
+      + struct.pack("<i", len(strips)) + struct.pack(f"<{len(strips)}i", *strips))
+write("any-empty.ply", "")
+
+stl_facet = struct.pack("<12fH", 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0)
+write("ok-stl-binary.stl", b" " * 80 + struct.pack("<I", 1) + stl_facet)
+write("error-stl-lying-count.stl", b" " * 80 + struct.pack("<I", 100_000_000) + stl_facet)
+write("ok-stl-ascii.stl", "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid s\n")
+write("error-stl-ascii-four-vertices.stl", "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nvertex 1 1 0\nendloop\nendfacet\nendsolid s\n")
+write("any-empty.stl", "")
+
+# Pathological topology: a million copies of one triangle, a book of 100,000 pages on
+# one edge, a fan of 200,000 triangles.
+with open(os.path.join(asset, "ok-million-copies.obj"), "w") as f:
+    f.write("v 0 0 0\nv 1 0 0\nv 0 1 0\n" + "f 1 2 3\n" * 1_000_000)
+with open(os.path.join(asset, "ok-book.obj"), "w") as f:
+    n = 100_000
+    f.write("v 0 0 0\nv 0 0 1\n")
+    f.write("".join(f"v {math.cos(2 * math.pi * k / n)} {math.sin(2 * math.pi * k / n)} 0.5\n" for k in range(n)))
+    f.write("".join(f"f 1 2 {k + 3}\n" for k in range(n)))
+with open(os.path.join(asset, "ok-fan.obj"), "w") as f:
+    n = 200_000
+    f.write("v 0 0 0\n")
+    f.write("".join(f"v {math.cos(2 * math.pi * k / n)} {math.sin(2 * math.pi * k / n)} 0\n" for k in range(n)))
+    f.write("".join(f"f 1 {k + 2} {(k + 1) % n + 2}\n" for k in range(n)))

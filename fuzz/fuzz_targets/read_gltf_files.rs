@@ -1,0 +1,39 @@
+//! Fuzz the glTF reader as it reads files: the input is written as `asset/fuzz.gltf`
+//! beside a `asset/buffer.bin` and a canary outside the folder, then read by path, so
+//! that buffer URIs resolve on the file system by the rule for references. Any bytes
+//! must give a scene or an error, never a panic, and never the canary's bytes.
+#![no_main]
+use libfuzzer_sys::fuzz_target;
+use std::path::PathBuf;
+use std::sync::OnceLock;
+
+/// The folder `…/asset` with `buffer.bin` in it and `canary.bin` beside it.
+fn folder() -> &'static PathBuf {
+    static FOLDER: OnceLock<PathBuf> = OnceLock::new();
+    FOLDER.get_or_init(|| {
+        let root = std::env::temp_dir().join(format!("rtmesh-fuzz-gltf-{}", std::process::id()));
+        let asset = root.join("asset");
+        std::fs::create_dir_all(&asset).unwrap();
+        let corners: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+            .iter()
+            .flat_map(|c| c.to_le_bytes())
+            .collect();
+        std::fs::write(asset.join("buffer.bin"), corners).unwrap();
+        // Positions of 1e30 if anyone reads the canary as a buffer.
+        std::fs::write(root.join("canary.bin"), 1e30f32.to_le_bytes().repeat(64)).unwrap();
+        asset
+    })
+}
+
+fuzz_target!(|data: &[u8]| {
+    let path = folder().join("fuzz.gltf");
+    std::fs::write(&path, data).unwrap();
+    if let Ok(scene) = rtmesh::io::read(&path) {
+        let canary = 1e30f32;
+        assert!(
+            scene.meshes.iter().flat_map(|m| &m.positions).all(|p| p.x != canary),
+            "the canary outside the asset's folder was read"
+        );
+        let _ = rtmesh::mesh::MeshInfo::of(&scene);
+    }
+});
