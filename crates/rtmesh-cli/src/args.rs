@@ -115,6 +115,16 @@ pub fn parse_size_or_zero(text: &str) -> Result<(usize, usize), String> {
     }
 }
 
+/// How every mesh of this run is read (`--asset-root`), set once by `cmd::run`.
+static READ_OPTIONS: std::sync::OnceLock<rtmesh::io::ReadOptions> = std::sync::OnceLock::new();
+
+/// Set how meshes are read for the rest of the run.
+pub fn set_read_options(options: rtmesh::io::ReadOptions) {
+    READ_OPTIONS
+        .set(options)
+        .expect("read options are set once");
+}
+
 /// Read a mesh file (with a progress bar for large files) or make a built-in scene
 /// (`builtin:NAME`).
 pub fn load(mesh: &str) -> Result<Scene> {
@@ -137,7 +147,8 @@ pub fn load(mesh: &str) -> Result<Scene> {
         ProgressBar::hidden()
     };
     bar.set_message(mesh.to_owned());
-    let scene = rtmesh::io::read_with_progress(path, &mut |done, _| bar.set_position(done));
+    let options = READ_OPTIONS.get_or_init(Default::default);
+    let scene = rtmesh::io::read_with(path, options, &mut |done, _| bar.set_position(done));
     bar.finish_and_clear();
     Ok(scene?)
 }

@@ -207,3 +207,20 @@ fn odd_strides_are_errors_not_panics() {
         );
     }
 }
+
+#[test]
+fn an_asset_root_above_the_folder_lets_references_climb_to_it_and_no_further() {
+    let (root, asset) = sandbox("root");
+    let file = asset.join("climbs.gltf");
+    std::fs::write(&file, gltf_with_buffer("../canary.bin")).unwrap();
+    let options = |dir: &Path| rtmesh::io::ReadOptions {
+        asset_root: Some(dir.to_owned()),
+    };
+    let scene = rtmesh::io::read_with(&file, &options(&root), &mut |_, _| {}).unwrap();
+    assert_eq!(scene.meshes[0].positions.len(), 3);
+    let message = rtmesh::io::read_with(&file, &options(&asset), &mut |_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(message.contains("refers to '../canary.bin'"), "{message}");
+    std::fs::remove_dir_all(&root).ok();
+}

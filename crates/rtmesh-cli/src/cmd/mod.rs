@@ -22,6 +22,11 @@ use clap::{Parser, Subcommand};
 #[derive(Parser)]
 #[command(name = "rtmesh", version, about, long_about)]
 pub struct Cli {
+    /// The folder that files a mesh refers to (OBJ mtllib, glTF buffers) must stay in.
+    /// By default the mesh's own folder: references that climb out of it with '..', are
+    /// absolute, or lead out through a link are refused.
+    #[arg(long, global = true, value_name = "DIR")]
+    asset_root: Option<std::path::PathBuf>,
     #[command(subcommand)]
     command: Command,
 }
@@ -41,6 +46,9 @@ enum Command {
 
 /// Run the subcommand the command line names.
 pub fn run(cli: Cli) -> Result<()> {
+    crate::args::set_read_options(rtmesh::io::ReadOptions {
+        asset_root: cli.asset_root,
+    });
     match cli.command {
         Command::Info(args) => info::run(args),
         Command::Convert(args) => convert::run(args),

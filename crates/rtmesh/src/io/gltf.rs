@@ -17,6 +17,7 @@ use std::path::Path;
 pub(super) fn read<R: BufRead>(
     path: &Path,
     mut reader: CountingReader<'_, R>,
+    root: &Path,
 ) -> Result<Scene, MeshError> {
     let mut bytes = Vec::new();
     reader
@@ -47,7 +48,7 @@ pub(super) fn read<R: BufRead>(
     check_position_references(unvalidated.as_json()).map_err(|e| MeshError::invalid(path, e))?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(&bytes).map_err(|e| MeshError::invalid(path, e.to_string()))?;
-    let buffers = read_buffers(path, &document, blob)?;
+    let buffers = read_buffers(path, &document, blob, root)?;
 
     let mut scene = Scene {
         materials: document
@@ -173,6 +174,7 @@ fn read_buffers(
     path: &Path,
     document: &gltf::Document,
     mut blob: Option<Vec<u8>>,
+    root: &Path,
 ) -> Result<Vec<gltf::buffer::Data>, MeshError> {
     use super::reference::{percent_decode, read_referenced, MAX_REFERENCED_BYTES};
     let mut buffers = Vec::new();
@@ -198,7 +200,7 @@ fn read_buffers(
             gltf::buffer::Source::Uri(uri) => {
                 let reference = percent_decode(uri)
                     .ok_or_else(|| context(format!("URI '{uri}' has a malformed %-escape")))?;
-                read_referenced(path, &reference)?
+                read_referenced(path, &reference, root)?
                     .ok_or_else(|| context(format!("'{reference}' not found beside the file")))?
             }
         };

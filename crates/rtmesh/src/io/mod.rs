@@ -120,6 +120,15 @@ impl Format {
 /// Called with (bytes read so far, total bytes) while a file is read.
 pub type Progress<'a> = &'a mut dyn FnMut(u64, u64);
 
+/// How to read a mesh file.
+#[derive(Clone, Debug, Default)]
+pub struct ReadOptions {
+    /// The folder the files a mesh refers to (OBJ `mtllib`, glTF buffers) must stay in;
+    /// `None`: the mesh's own folder. References still resolve relative to the mesh's
+    /// folder; a root above it lets them climb (`../shared/wood.mtl`) as far as it.
+    pub asset_root: Option<PathBuf>,
+}
+
 /// Read a mesh file into a [`Scene`].
 pub fn read(path: &Path) -> Result<Scene, MeshError> {
     read_with_progress(path, &mut |_, _| {})
@@ -127,15 +136,29 @@ pub fn read(path: &Path) -> Result<Scene, MeshError> {
 
 /// Read a mesh file, reporting progress in bytes.
 pub fn read_with_progress(path: &Path, progress: Progress) -> Result<Scene, MeshError> {
+    read_with(path, &ReadOptions::default(), progress)
+}
+
+/// Read a mesh file with `options`, reporting progress in bytes.
+pub fn read_with(
+    path: &Path,
+    options: &ReadOptions,
+    progress: Progress,
+) -> Result<Scene, MeshError> {
     let format = Format::from_path(path)?;
     let file = std::fs::File::open(path).map_err(|e| MeshError::io(path, e))?;
     let total = file.metadata().map(|m| m.len()).unwrap_or(0);
     let reader = std::io::BufReader::with_capacity(1 << 16, file);
+    let root = options
+        .asset_root
+        .clone()
+        .unwrap_or_else(|| reference::asset_folder(path));
     read_counted(
         path,
         format,
         CountingReader::new(reader, total, progress),
         total,
+        &root,
     )
 }
 
@@ -150,21 +173,23 @@ pub fn read_bytes(name: &Path, bytes: &[u8]) -> Result<Scene, MeshError> {
         format,
         CountingReader::new(bytes, total, &mut ignore),
         total,
+        &reference::asset_folder(name),
     )
 }
 
-/// The reader of `format` over `reader` (`total` bytes), then the index check every
-/// reader ends with.
+/// The reader of `format` over `reader` (`total` bytes; references stay in `root`),
+/// then the index check every reader ends with.
 fn read_counted<R: BufRead>(
     path: &Path,
     format: Format,
     reader: CountingReader<'_, R>,
     total: u64,
+    root: &Path,
 ) -> Result<Scene, MeshError> {
     let scene = match format {
-        Format::Obj => obj::read(path, reader)?,
+        Format::Obj => obj::read(path, reader, root)?,
         Format::Ply => ply::read(path, reader, total)?,
-        Format::Gltf | Format::Glb => gltf::read(path, reader)?,
+        Format::Gltf | Format::Glb => gltf::read(path, reader, root)?,
         Format::Stl => stl::read(path, reader)?,
     };
     check_indices(path, &scene)?;

@@ -16,6 +16,7 @@ use std::path::Path;
 pub(super) fn read<R: BufRead>(
     path: &Path,
     mut reader: CountingReader<'_, R>,
+    root: &Path,
 ) -> Result<Scene, MeshError> {
     let mut text = Vec::new();
     reader
@@ -38,7 +39,7 @@ pub(super) fn read<R: BufRead>(
         tobj::load_obj_buf(
             &mut lines,
             &options,
-            |mtl| match super::reference::read_referenced(path, &mtl.to_string_lossy()) {
+            |mtl| match super::reference::read_referenced(path, &mtl.to_string_lossy(), root) {
                 Ok(Some(bytes)) => tobj::load_mtl_buf(&mut &bytes[..]),
                 Ok(None) => Err(tobj::LoadError::OpenFileFailed),
                 Err(error) => {

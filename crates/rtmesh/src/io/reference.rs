@@ -1,6 +1,7 @@
 //! The one rule for the files an asset refers to (OBJ `mtllib`, glTF buffer URIs): a
 //! reference resolves relative to the asset's own folder (also when the asset is named
-//! by a bare file name) and must stay inside that folder. Absolute paths, `..` that
+//! by a bare file name) and must stay inside that folder, or inside the asset root the
+//! user gives ([`super::ReadOptions::asset_root`]). Absolute paths, `..` that
 //! climbs out, and symbolic links that lead out are refused with an error naming the
 //! asset and the reference. Only regular files are opened (never a device such as
 //! `/dev/zero`), and their size is checked against [`MAX_REFERENCED_BYTES`] before
@@ -13,13 +14,33 @@ use std::path::{Component, Path, PathBuf};
 /// The largest file an asset may refer to, and the largest `data:` URI payload: 1 GiB.
 pub const MAX_REFERENCED_BYTES: u64 = 1 << 30;
 
-/// The folder an asset's references must stay in: its own folder, `.` for a bare file
+/// The folder an asset's references resolve in: its own folder, `.` for a bare file
 /// name.
-fn asset_folder(asset: &Path) -> PathBuf {
+pub(crate) fn asset_folder(asset: &Path) -> PathBuf {
     match asset.parent() {
         Some(parent) if !parent.as_os_str().is_empty() => parent.to_owned(),
         _ => PathBuf::from("."),
     }
+}
+
+/// `path` made absolute (against the current directory) with `.` and `..` resolved
+/// lexically, touching no file; `None` where `..` would climb above the file system's
+/// root.
+fn lexical(path: &Path) -> Option<PathBuf> {
+    let absolute = std::path::absolute(path).ok()?;
+    let mut out = PathBuf::new();
+    for component in absolute.components() {
+        match component {
+            Component::ParentDir => {
+                if !out.pop() {
+                    return None;
+                }
+            }
+            Component::CurDir => {}
+            other => out.push(other),
+        }
+    }
+    Some(out)
 }
 
 /// Why a reference of `asset` is refused.
@@ -28,41 +49,54 @@ fn refused(asset: &Path, reference: &str, why: &str) -> MeshError {
 }
 
 /// The path `reference` (relative, `/`-separated, already percent-decoded) of `asset`
-/// names, checked by the rule above (the file need not exist).
-pub(crate) fn resolve(asset: &Path, reference: &str) -> Result<PathBuf, MeshError> {
-    let relative = Path::new(reference);
+/// names, resolved in the asset's folder and checked to stay inside `root` (the asset's
+/// folder unless the user gave another); the file need not exist.
+pub(crate) fn resolve(asset: &Path, reference: &str, root: &Path) -> Result<PathBuf, MeshError> {
     if reference.is_empty() {
         return Err(refused(asset, reference, "is empty"));
     }
-    if relative.is_absolute() || reference.starts_with(['/', '\\']) || reference.contains(':') {
+    if Path::new(reference).is_absolute()
+        || reference.starts_with(['/', '\\'])
+        || reference.contains(':')
+    {
         return Err(refused(
             asset,
             reference,
             "is an absolute path or names a drive or scheme: references must be relative to the asset's folder",
         ));
     }
-    let mut depth = 0usize;
-    for component in relative.components() {
-        match component {
-            Component::Normal(_) => depth += 1,
-            Component::CurDir => {}
-            Component::ParentDir if depth > 0 => depth -= 1,
-            _ => {
-                return Err(refused(
-                    asset,
-                    reference,
-                    "climbs out of the asset's folder with '..'",
-                ))
-            }
-        }
+    let path = asset_folder(asset).join(reference);
+    let inside = match (lexical(&path), lexical(root)) {
+        (Some(path), Some(root)) => path.starts_with(root),
+        _ => false,
+    };
+    if !inside {
+        return Err(refused(
+            asset,
+            reference,
+            &format!("climbs out of {} with '..'", root_name(asset, root)),
+        ));
     }
-    Ok(asset_folder(asset).join(relative))
+    Ok(path)
+}
+
+/// How errors name `root`: the asset's folder, or the asset root the user gave.
+fn root_name(asset: &Path, root: &Path) -> String {
+    if lexical(root) == lexical(&asset_folder(asset)) {
+        "the asset's folder".into()
+    } else {
+        format!("the asset root {}", root.display())
+    }
 }
 
 /// The bytes of the file `reference` of `asset` names, by the rule above; `Ok(None)`
 /// when there is no such file (the caller decides whether that is an error).
-pub(crate) fn read_referenced(asset: &Path, reference: &str) -> Result<Option<Vec<u8>>, MeshError> {
-    let path = resolve(asset, reference)?;
+pub(crate) fn read_referenced(
+    asset: &Path,
+    reference: &str,
+    root: &Path,
+) -> Result<Option<Vec<u8>>, MeshError> {
+    let path = resolve(asset, reference, root)?;
     let metadata = match std::fs::metadata(&path) {
         Ok(metadata) => metadata,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
@@ -72,15 +106,13 @@ pub(crate) fn read_referenced(asset: &Path, reference: &str) -> Result<Option<Ve
         return Err(refused(asset, reference, "is not a regular file"));
     }
     // A symbolic link inside the folder may still lead out of it.
-    let folder = asset_folder(asset)
-        .canonicalize()
-        .map_err(|e| MeshError::io(asset, e))?;
+    let real_root = root.canonicalize().map_err(|e| MeshError::io(root, e))?;
     let real = path.canonicalize().map_err(|e| MeshError::io(&path, e))?;
-    if !real.starts_with(&folder) {
+    if !real.starts_with(&real_root) {
         return Err(refused(
             asset,
             reference,
-            "leads out of the asset's folder through a link",
+            &format!("leads out of {} through a link", root_name(asset, root)),
         ));
     }
     if metadata.len() > MAX_REFERENCED_BYTES {
@@ -133,17 +165,28 @@ mod tests {
     #[test]
     fn references_stay_in_the_assets_folder() {
         let asset = Path::new("assets/model.obj");
+        let folder = Path::new("assets");
         assert_eq!(
-            resolve(asset, "model.mtl").unwrap(),
+            resolve(asset, "model.mtl", folder).unwrap(),
             Path::new("assets/model.mtl")
         );
         assert_eq!(
-            resolve(asset, "textures/../model.mtl").unwrap(),
+            resolve(asset, "textures/../model.mtl", folder).unwrap(),
             Path::new("assets/textures/../model.mtl")
         );
         assert_eq!(
-            resolve(Path::new("model.gltf"), "model.bin").unwrap(),
+            resolve(Path::new("model.gltf"), "model.bin", Path::new(".")).unwrap(),
             Path::new("./model.bin")
+        );
+        // A root above the asset's folder lets references climb as far as it.
+        let deep = Path::new("library/assets/model.obj");
+        assert!(resolve(deep, "../shared/wood.mtl", Path::new("library")).is_ok());
+        let message = resolve(deep, "../../x.mtl", Path::new("library"))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("climbs out of the asset root library"),
+            "{message}"
         );
         for bad in [
             "/etc/passwd",
@@ -153,7 +196,7 @@ mod tests {
             "\\\\server\\x",
             "",
         ] {
-            let message = resolve(asset, bad).unwrap_err().to_string();
+            let message = resolve(asset, bad, folder).unwrap_err().to_string();
             assert!(
                 message.starts_with("assets/model.obj: refers to '"),
                 "{bad}: {message}"
