@@ -12,6 +12,9 @@
 //! shorten the latency chain that every step of a traversal waits on. Cost per visit:
 //! 6 subtractions, 6 multiplications, 8 min/max, and a sort of the (usually 1–3) hits.
 
+#[cfg(target_arch = "x86_64")]
+mod avx;
+
 use super::{Counters, RayQuery};
 use crate::bvh::WIDTH;
 use crate::bvh::{Bvh, BvhNode, Child, EMPTY_CHILD};
@@ -64,7 +67,7 @@ pub(crate) fn children<S: Isa>(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([
     #[cfg(target_arch = "x86_64")]
     if S::AVX {
         // SAFETY: code with an AVX `Isa` runs only on CPUs with AVX, compiled with it.
-        return unsafe { avx_children(node, ray, t_max) };
+        return unsafe { avx::avx_children(node, ray, t_max) };
     }
     portable_children(node, ray, t_max)
 }
@@ -87,46 +90,6 @@ fn portable_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH
         .fast_min(slab(fy, o.y, f.y))
         .fast_min(slab(fz, o.z, f.z).fast_min(f32x8::splat(t_max)));
     (near.to_array(), near.simd_le(far).to_bitmask())
-}
-
-/// The node test with AVX: the same operations as [`portable_children`] in single
-/// 256-bit instructions.
-///
-/// No `#[target_feature]` of its own, so that it inlines into its AVX-compiled callers
-/// (a function with the attribute cannot be inlined into `children`, which has none,
-/// and stayed an out-of-line call per node visit); the intrinsics inline there.
-///
-/// # Safety
-/// Only call it from code compiled with AVX, on a CPU that has it.
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-unsafe fn avx_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
-    use std::arch::x86_64::*;
-    let p = &node.planes;
-    let ([nx, ny, nz], [fx, fy, fz]) = (ray.near_plane, ray.far_plane);
-    let o = ray.origin;
-    let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
-    let slab = |plane: usize, origin: f32, inverse: f32| {
-        // SAFETY: `p[plane]` is 8 floats.
-        let planes = unsafe { _mm256_loadu_ps(p[plane].as_ptr()) };
-        _mm256_mul_ps(
-            _mm256_sub_ps(planes, _mm256_set1_ps(origin)),
-            _mm256_set1_ps(inverse),
-        )
-    };
-    let near = _mm256_max_ps(
-        _mm256_max_ps(slab(nx, o.x, i.x), slab(ny, o.y, i.y)),
-        _mm256_max_ps(slab(nz, o.z, i.z), _mm256_set1_ps(ray.t_min)),
-    );
-    let far = _mm256_min_ps(
-        _mm256_min_ps(slab(fx, o.x, f.x), slab(fy, o.y, f.y)),
-        _mm256_min_ps(slab(fz, o.z, f.z), _mm256_set1_ps(t_max)),
-    );
-    let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32;
-    let mut distances = [0.0f32; WIDTH];
-    // SAFETY: `distances` is 8 floats.
-    unsafe { _mm256_storeu_ps(distances.as_mut_ptr(), near) };
-    (distances, mask)
 }
 
 /// Insert `entry` among the first `n` entries of `sorted`, kept in decreasing order of
