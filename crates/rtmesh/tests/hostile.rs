@@ -17,12 +17,18 @@ fn sandbox(name: &str) -> (PathBuf, PathBuf) {
 
 /// A glTF of one triangle whose buffer is `uri`.
 fn gltf_with_buffer(uri: &str) -> String {
+    gltf(uri, r#"[{"mesh":0}]"#, "[0]", "")
+}
+
+/// A glTF of one triangle whose buffer is `uri`, with the nodes, scene roots and extra
+/// buffer view fields given.
+fn gltf(uri: &str, nodes: &str, roots: &str, view_extra: &str) -> String {
     format!(
         r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{uri}","byteLength":36}}],
-        "bufferViews":[{{"buffer":0,"byteLength":36}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36{view_extra}}}],
         "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
         "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
-        "nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0}}"#
+        "nodes":{nodes},"scenes":[{{"nodes":{roots}}}],"scene":0}}"#
     )
 }
 
@@ -111,29 +117,20 @@ fn gltf_buffers_beside_the_file_and_data_uris_read() {
     let scene = rtmesh::io::read(&file).unwrap();
     assert_eq!(scene.meshes[0].positions[1], glam::Vec3::X);
     // A data: URI (base64 of the same 36 bytes).
-    let encoded = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
     let file = asset.join("inline.gltf");
-    std::fs::write(
-        &file,
-        gltf_with_buffer(&format!("data:application/octet-stream;base64,{encoded}")),
-    )
-    .unwrap();
+    std::fs::write(&file, gltf_with(r#"[{"mesh":0}]"#, "[0]", "")).unwrap();
     let scene = rtmesh::io::read(&file).unwrap();
     assert_eq!(scene.meshes[0].positions[2], glam::Vec3::Y);
     std::fs::remove_dir_all(&root).ok();
 }
 
+/// The 36 bytes of the triangle (0,0,0), (1,0,0), (0,1,0), base64.
+const TRIANGLE_BASE64: &str = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+
 /// A glTF of one triangle in a data: URI, with the nodes and buffer view given.
 fn gltf_with(nodes: &str, roots: &str, view_extra: &str) -> Vec<u8> {
-    let encoded = "AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
-    format!(
-        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"data:application/octet-stream;base64,{encoded}","byteLength":36}}],
-        "bufferViews":[{{"buffer":0,"byteLength":36{view_extra}}}],
-        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
-        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
-        "nodes":{nodes},"scenes":[{{"nodes":{roots}}}],"scene":0}}"#
-    )
-    .into_bytes()
+    let uri = format!("data:application/octet-stream;base64,{TRIANGLE_BASE64}");
+    gltf(&uri, nodes, roots, view_extra).into_bytes()
 }
 
 fn error_of(name: &str, bytes: &[u8]) -> String {

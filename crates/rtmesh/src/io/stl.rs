@@ -65,16 +65,14 @@ pub(super) fn read<R: BufRead>(
 
 /// A binary STL whose size matches its count.
 fn read_binary(bytes: &[u8]) -> Scene {
-    let float = |at: usize| f32::from_le_bytes(bytes[at..at + 4].try_into().expect("four bytes"));
+    let float = |at: &[u8]| f32::from_le_bytes(at[..4].try_into().expect("four bytes"));
+    // Each facet: the normal (skipped), three corners, the attribute word.
     let corners: Vec<Vec3> = bytes[HEADER_BYTES..]
         .chunks_exact(FACET_BYTES)
-        .enumerate()
-        .flat_map(|(f, _)| {
-            let base = HEADER_BYTES + f * FACET_BYTES + 12;
-            (0..3).map(move |k| {
-                let at = base + 12 * k;
-                Vec3::new(float(at), float(at + 4), float(at + 8))
-            })
+        .flat_map(|facet| {
+            facet[12..48]
+                .chunks_exact(12)
+                .map(|c| Vec3::new(float(&c[0..]), float(&c[4..]), float(&c[8..])))
         })
         .collect();
     let mut scene = Scene::default();

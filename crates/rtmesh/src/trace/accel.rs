@@ -340,115 +340,120 @@ impl<L: LeafBlock> SceneAccel<L> {
     }
 }
 
-/// Closest hit of one ray through a scene, with leaf test `leaf` (or, where it is
-/// `None`, the blocks' own test for the instruction set), as a [`Kernel`].
-struct Closest<'a, L, C, F> {
+/// The test of a leaf block that [`Closest`] and [`Occluded`] run: the blocks' own
+/// ([`OwnTest`]) or an intersector's ([`IntersectorTest`]), for instruction set `S`.
+trait LeafTest<L>: Copy {
+    /// Record a closer hit into `hit`; whether there was one.
+    fn closest<S: Isa>(self, block: &L, query: &RayQuery, hit: &mut Hit) -> bool;
+    /// Whether the block is hit before `t_max`.
+    fn occludes<S: Isa>(self, block: &L, query: &RayQuery, t_max: f32) -> bool;
+}
+
+/// A leaf block's own test, in AVX registers when `S` has AVX.
+#[derive(Clone, Copy)]
+struct OwnTest;
+
+impl<L: LeafBlock> LeafTest<L> for OwnTest {
+    #[inline(always)]
+    fn closest<S: Isa>(self, block: &L, query: &RayQuery, hit: &mut Hit) -> bool {
+        if S::AVX {
+            // SAFETY: code with an AVX `Isa` runs only on CPUs with AVX, compiled with it.
+            unsafe { block.intersect_into_avx(query, hit) }
+        } else {
+            block.intersect_into(query, hit)
+        }
+    }
+    #[inline(always)]
+    fn occludes<S: Isa>(self, block: &L, query: &RayQuery, t_max: f32) -> bool {
+        if S::AVX {
+            // SAFETY: as in `closest`.
+            unsafe { block.occludes_avx(query, t_max) }
+        } else {
+            block.occludes(query, t_max)
+        }
+    }
+}
+
+/// Intersector `I`'s test of a triangle block.
+#[derive(Clone, Copy)]
+struct IntersectorTest<I>(std::marker::PhantomData<I>);
+
+impl<I: Intersector> LeafTest<Triangle4> for IntersectorTest<I> {
+    #[inline(always)]
+    fn closest<S: Isa>(self, block: &Triangle4, query: &RayQuery, hit: &mut Hit) -> bool {
+        packet::block_closest::<I>(block, query, hit)
+    }
+    #[inline(always)]
+    fn occludes<S: Isa>(self, block: &Triangle4, query: &RayQuery, t_max: f32) -> bool {
+        packet::block_occludes::<I>(block, query, t_max)
+    }
+}
+
+/// Closest hit of one ray through a scene with leaf test `T`, as a [`Kernel`].
+struct Closest<'a, L, C, T> {
     accel: &'a SceneAccel<L>,
     ray: &'a Ray,
     counters: &'a mut C,
-    leaf: Option<F>,
+    leaf: T,
 }
 
-impl<L: LeafBlock, C: Counters, F: Fn(&L, &RayQuery, &mut Hit) -> bool + Copy> Kernel
-    for Closest<'_, L, C, F>
-{
+impl<L: LeafBlock, C: Counters, T: LeafTest<L>> Kernel for Closest<'_, L, C, T> {
     type Output = Hit;
     #[inline(always)]
     fn run<S: Isa>(self) -> Hit {
-        match self.leaf {
-            Some(leaf) => self
-                .accel
-                .intersect_with::<S, C>(self.ray, self.counters, leaf),
-            None => self.accel.intersect_with::<S, C>(
-                self.ray,
-                self.counters,
-                #[inline(always)]
-                |block: &L, query: &RayQuery, hit: &mut Hit| {
-                    block_closest::<S, L>(block, query, hit)
-                },
-            ),
-        }
+        let leaf = self.leaf;
+        self.accel.intersect_with::<S, C>(
+            self.ray,
+            self.counters,
+            #[inline(always)]
+            move |block: &L, query: &RayQuery, hit: &mut Hit| leaf.closest::<S>(block, query, hit),
+        )
     }
 }
 
-/// Occlusion of one ray through a scene, as [`Closest`].
-struct Occluded<'a, L, C, F> {
+/// Occlusion of one ray through a scene with leaf test `T`, as a [`Kernel`].
+struct Occluded<'a, L, C, T> {
     accel: &'a SceneAccel<L>,
     ray: &'a Ray,
     counters: &'a mut C,
-    leaf: Option<F>,
+    leaf: T,
 }
 
-impl<L: LeafBlock, C: Counters, F: Fn(&L, &RayQuery, f32) -> bool + Copy> Kernel
-    for Occluded<'_, L, C, F>
-{
+impl<L: LeafBlock, C: Counters, T: LeafTest<L>> Kernel for Occluded<'_, L, C, T> {
     type Output = bool;
     #[inline(always)]
     fn run<S: Isa>(self) -> bool {
-        match self.leaf {
-            Some(leaf) => self
-                .accel
-                .occluded_with::<S, C>(self.ray, self.counters, leaf),
-            None => self.accel.occluded_with::<S, C>(
-                self.ray,
-                self.counters,
-                #[inline(always)]
-                |block: &L, query: &RayQuery, t_max: f32| {
-                    block_occludes::<S, L>(block, query, t_max)
-                },
-            ),
-        }
+        let leaf = self.leaf;
+        self.accel.occluded_with::<S, C>(
+            self.ray,
+            self.counters,
+            #[inline(always)]
+            move |block: &L, query: &RayQuery, t_max: f32| leaf.occludes::<S>(block, query, t_max),
+        )
     }
 }
-
-/// A leaf block's own closest-hit test, in AVX registers when `S` has AVX.
-#[inline(always)]
-fn block_closest<S: Isa, L: LeafBlock>(block: &L, query: &RayQuery, hit: &mut Hit) -> bool {
-    if S::AVX {
-        // SAFETY: code with an AVX `Isa` runs only on CPUs with AVX, compiled with it.
-        unsafe { block.intersect_into_avx(query, hit) }
-    } else {
-        block.intersect_into(query, hit)
-    }
-}
-
-/// A leaf block's own occlusion test, as [`block_closest`].
-#[inline(always)]
-fn block_occludes<S: Isa, L: LeafBlock>(block: &L, query: &RayQuery, t_max: f32) -> bool {
-    if S::AVX {
-        // SAFETY: as in `block_closest`.
-        unsafe { block.occludes_avx(query, t_max) }
-    } else {
-        block.occludes(query, t_max)
-    }
-}
-
-/// The type of a leaf test that is not given, for [`Closest`] and [`Occluded`].
-type OwnClosest<L> = fn(&L, &RayQuery, &mut Hit) -> bool;
-/// As [`OwnClosest`], for occlusion.
-type OwnOccludes<L> = fn(&L, &RayQuery, f32) -> bool;
 
 impl<L: LeafBlock> Tracer for SceneAccel<L> {
     /// Closest hit of `ray`, counting work into `counters`; AVX where the CPU has it,
     /// the portable code elsewhere (bit-identical results).
     #[inline]
     fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
-        dispatch(Closest::<L, C, OwnClosest<L>> {
+        dispatch(Closest {
             accel: self,
             ray,
             counters,
-            leaf: None,
+            leaf: OwnTest,
         })
     }
 
     /// Whether anything blocks `ray` within `(t_min, t_max)`.
     #[inline]
     fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
-        dispatch(Occluded::<L, C, OwnOccludes<L>> {
+        dispatch(Occluded {
             accel: self,
             ray,
             counters,
-            leaf: None,
+            leaf: OwnTest,
         })
     }
 }
@@ -461,7 +466,7 @@ impl SceneAccel<Triangle4> {
             accel: self,
             ray,
             counters,
-            leaf: Some(packet::block_closest::<I>),
+            leaf: IntersectorTest::<I>(std::marker::PhantomData),
         })
     }
 
@@ -471,7 +476,7 @@ impl SceneAccel<Triangle4> {
             accel: self,
             ray,
             counters,
-            leaf: Some(packet::block_occludes::<I>),
+            leaf: IntersectorTest::<I>(std::marker::PhantomData),
         })
     }
 
