@@ -82,5 +82,19 @@ pub fn write_mesh(scene: &rtmesh::Scene, path: &std::path::Path) -> Result<()> {
             notes.inactive_collapsed
         );
     }
+    if notes.normals_renormalized > 0 {
+        eprintln!(
+            "note: {}: glTF asks for unit normals and tangents, so {} vertices' were written renormalized",
+            path.display(),
+            notes.normals_renormalized
+        );
+    }
+    if notes.weights_renormalized > 0 {
+        eprintln!(
+            "note: {}: glTF asks for skin weights that sum to 1, so {} vertices' weights were written scaled to sum to 1",
+            path.display(),
+            notes.weights_renormalized
+        );
+    }
     Ok(())
 }

@@ -186,6 +186,9 @@ pub fn repair_mesh(mesh: &TriMesh, settings: &RepairSettings) -> (Repaired, Repa
         } else if !degenerate.is_empty() {
             let nan = mesh.positions.len() as u32;
             mesh.positions.push(Vec3::NAN);
+            for attribute in &mut mesh.attributes {
+                attribute.push_zeros(1);
+            }
             for &t in &degenerate {
                 mesh.triangles[t as usize] = [nan; 3];
             }
@@ -346,9 +349,11 @@ fn remove_triangles(mesh: &mut TriMesh, input_triangle: &mut Vec<u32>, ids: &[u3
             .map(|(&v, _)| v)
             .collect()
     }
+    mesh.group_ids.resize(mesh.triangles.len(), 0);
     mesh.triangles = kept(&mesh.triangles, &keep);
     mesh.material_ids = kept(&mesh.material_ids, &keep);
     mesh.alpha_tested = kept(&mesh.alpha_tested, &keep);
+    mesh.group_ids = kept(&mesh.group_ids, &keep);
     *input_triangle = kept(input_triangle, &keep);
 }
 
@@ -388,10 +393,13 @@ fn split_elongated(
     let mut split = 0;
     let mut reached = false;
     for _round in 0..64 {
-        let adjacency = EdgeAdjacency::build(mesh);
+        // Adjacency by position, so that splits cross UV seams and normal creases and
+        // the mesh stays watertight.
+        let topology = mesh.topology();
+        let adjacency = EdgeAdjacency::build(&topology);
         let length = |e: u32| {
             let [a, b] = adjacency.edges[e as usize];
-            (mesh.positions[a as usize] - mesh.positions[b as usize]).length_squared()
+            (topology.positions[a as usize] - topology.positions[b as usize]).length_squared()
         };
         let longest_of = |t: usize| {
             adjacency.triangle_edges[t]
@@ -482,18 +490,19 @@ fn split_elongated(
     }
 }
 
-/// Split every triangle of each edge in `edges` at the edge's midpoint.
+/// Split every triangle of each edge in `edges` (of the topology `adjacency` was built
+/// on) at the edge's midpoint. Each distinct pair of end vertices (the two sides of a
+/// seam are two) gets its own midpoint vertex, with attributes interpolated between its
+/// ends, so seams stay seams.
 fn apply_splits(
     mesh: &mut TriMesh,
     input_triangle: &mut Vec<u32>,
     adjacency: &EdgeAdjacency,
     edges: &[u32],
 ) {
+    let mut midpoints: std::collections::HashMap<(u32, u32), u32> = Default::default();
     for &e in edges {
-        let [a, b] = adjacency.edges[e as usize];
-        let m = mesh.positions.len() as u32;
-        mesh.positions
-            .push((mesh.positions[a as usize] + mesh.positions[b as usize]) * 0.5);
+        midpoints.clear();
         for &t in adjacency.triangles_of(e) {
             let t = t as usize;
             let k = (0..3)
@@ -501,10 +510,18 @@ fn apply_splits(
                 .expect("the edge is a side of its triangle");
             let tri = mesh.triangles[t];
             let (from, to, opposite) = (tri[k], tri[(k + 1) % 3], tri[(k + 2) % 3]);
+            let ends = (from.min(to), from.max(to));
+            let m = *midpoints.entry(ends).or_insert_with(|| {
+                let (a, b) = (ends.0 as usize, ends.1 as usize);
+                mesh.positions
+                    .push((mesh.positions[a] + mesh.positions[b]) * 0.5);
+                for attribute in &mut mesh.attributes {
+                    attribute.push_midpoint(a, b);
+                }
+                mesh.positions.len() as u32 - 1
+            });
             mesh.triangles[t] = rotate_to(k, [from, m, opposite]);
-            mesh.triangles.push([m, to, opposite]);
-            mesh.material_ids.push(mesh.material_ids[t]);
-            mesh.alpha_tested.push(mesh.alpha_tested[t]);
+            mesh.push_triangle_like_self(t, [m, to, opposite]);
             input_triangle.push(input_triangle[t]);
         }
     }

@@ -226,14 +226,14 @@ pub fn room() -> Scene {
             Vec3::new(-1.0, 1.7, 0.0),
         ),
     );
-    scene.instances.push(crate::mesh::Instance {
-        mesh: ball,
-        transform: Affine3A::from_scale_rotation_translation(
+    scene.instances.push(crate::mesh::Instance::new(
+        ball,
+        Affine3A::from_scale_rotation_translation(
             Vec3::splat(0.8),
             Quat::IDENTITY,
             Vec3::new(4.0, 0.8, 3.0),
         ),
-    });
+    ));
     scene
 }
 

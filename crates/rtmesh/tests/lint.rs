@@ -135,10 +135,10 @@ fn overlapping_geometries_are_found() {
 #[test]
 fn overlapping_instances_of_one_geometry_are_not_advised_to_merge() {
     let mut scene = Scene::from_mesh(rtmesh::scenes::box_mesh(Vec3::ZERO, Vec3::splat(10.0)));
-    scene.instances.push(rtmesh::Instance {
-        mesh: 0,
-        transform: Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.0)),
-    });
+    scene.instances.push(rtmesh::Instance::new(
+        0,
+        Affine3A::from_translation(Vec3::new(1.0, 0.0, 0.0)),
+    ));
     let found = finding(&scene, "overlapping-geometries");
     assert_eq!(found.worst, vec![1]);
     let advice = found.advice;
@@ -163,7 +163,7 @@ proptest! {
             let size = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0;
             let mesh = if rng.next_f32() < 0.1 { empty } else { 0 };
             let transform = Affine3A::from_scale_rotation_translation(size, Default::default(), at);
-            scene.instances.push(rtmesh::mesh::Instance { mesh, transform });
+            scene.instances.push(rtmesh::Instance::new(mesh, transform));
         }
         let boxes: Vec<rtmesh::geom::Aabb> = scene
             .instances
@@ -288,10 +288,7 @@ fn stacked_layers_are_found_and_two_are_not() {
     assert!(!kinds(&sphere).contains("stacked-triangles"));
     // One geometry placed three times at one place: a stack across instances.
     let mut placed = Scene::from_mesh(grid(8, Vec3::ZERO));
-    let again = rtmesh::Instance {
-        mesh: 0,
-        transform: Affine3A::IDENTITY,
-    };
+    let again = rtmesh::Instance::new(0, Affine3A::IDENTITY);
     placed.instances.extend([again.clone(), again]);
     let found = finding(&placed, "stacked-triangles");
     assert_eq!(figure(&found, "most_layers_on_one_ray"), 3.0);
@@ -306,10 +303,7 @@ fn stacked_layers_are_found_and_two_are_not() {
             Vec3::new(1.0, 0.0, 1.0).into(),
             Vec3::new(0.0, 0.0, k as f32 * 1e-5).into(),
         );
-        sheared.instances.push(rtmesh::Instance {
-            mesh: 0,
-            transform: shear,
-        });
+        sheared.instances.push(rtmesh::Instance::new(0, shear));
     }
     let found = finding(&sheared, "stacked-triangles");
     assert_eq!(figure(&found, "most_layers_on_one_ray"), 3.0);

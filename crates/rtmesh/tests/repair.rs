@@ -293,10 +293,10 @@ fn scattered_pieces_become_instances_when_the_tracer_agrees() {
         0,
     );
     let mut scene = Scene::from_mesh(mesh);
-    scene.instances.push(rtmesh::Instance {
-        mesh: 0,
-        transform: Affine3A::from_translation(Vec3::new(0.0, 0.0, 8.0)),
-    });
+    scene.instances.push(rtmesh::Instance::new(
+        0,
+        Affine3A::from_translation(Vec3::new(0.0, 0.0, 8.0)),
+    ));
     let settings = RepairSettings {
         split_scattered: true,
         ..RepairSettings::default()

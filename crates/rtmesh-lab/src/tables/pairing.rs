@@ -91,7 +91,7 @@ pub fn pairing_rows(
 ) -> Vec<PairingRow> {
     let mut scene = scene.clone();
     for mesh in &mut scene.meshes {
-        *mesh = rtmesh::mesh::weld_exact(mesh).mesh;
+        *mesh = mesh.topology();
     }
     let mut all_methods = vec![PairMethod::Window(2)];
     all_methods.extend(methods.iter().filter(|&&m| m != PairMethod::Window(2)));

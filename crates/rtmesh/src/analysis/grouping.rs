@@ -122,7 +122,7 @@ pub(crate) fn merge_overlapping(
         }
         out.instances.push(crate::mesh::Instance {
             mesh: new_index[instance.mesh],
-            transform: instance.transform,
+            ..instance.clone()
         });
     }
     for group in &groups {
@@ -134,10 +134,10 @@ pub(crate) fn merge_overlapping(
             geometry.extend_from_slice(&map.input_geometry[instance.mesh]);
             triangle.extend_from_slice(&map.input_triangle[instance.mesh]);
         }
-        out.instances.push(crate::mesh::Instance {
-            mesh: out.meshes.len(),
-            transform: glam::Affine3A::IDENTITY,
-        });
+        out.instances.push(crate::mesh::Instance::new(
+            out.meshes.len(),
+            glam::Affine3A::IDENTITY,
+        ));
         out.meshes.push(mesh);
         out_map.input_geometry.push(geometry);
         out_map.input_triangle.push(triangle);
@@ -178,7 +178,7 @@ pub(crate) fn assemble(
         for &mesh in &outputs[instance.mesh] {
             out.instances.push(crate::mesh::Instance {
                 mesh,
-                transform: instance.transform,
+                ..instance.clone()
             });
         }
     }
@@ -211,14 +211,11 @@ pub(crate) fn split_pieces(repaired: &Repaired, piece: &[u32], count: usize) -> 
                 return v; // out of range: kept as is, still skipped by the tracer
             };
             if slot.0 != p {
-                *slot = (p, part.mesh.positions.len() as u32);
-                part.mesh.positions.push(mesh.positions[v as usize]);
+                *slot = (p, part.mesh.push_vertex_like(mesh, v as usize));
             }
             slot.1
         });
-        part.mesh.triangles.push(triangle);
-        part.mesh.material_ids.push(mesh.material_ids[t]);
-        part.mesh.alpha_tested.push(mesh.alpha_tested[t]);
+        part.mesh.push_triangle_like(triangle, mesh, t);
         part.input_triangle.push(repaired.input_triangle[t]);
     }
     parts

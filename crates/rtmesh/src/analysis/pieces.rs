@@ -3,7 +3,7 @@
 //! instances). Cost: a weld, the edge adjacency and a union of boxes, O(T).
 
 use crate::geom::Aabb;
-use crate::mesh::{connected_components, weld_exact, EdgeAdjacency, TriMesh};
+use crate::mesh::{connected_components, EdgeAdjacency, TriMesh};
 
 /// The connected pieces of a geometry (by edges, after welding identical positions):
 /// the piece of every triangle, each piece's box, and the pieces' summed box area over
@@ -21,7 +21,7 @@ pub struct Pieces {
 impl Pieces {
     /// The pieces of `mesh`.
     pub fn of(mesh: &TriMesh) -> Self {
-        let welded = weld_exact(mesh).mesh;
+        let welded = mesh.topology();
         let (of_triangle, count) = connected_components(&EdgeAdjacency::build(&welded));
         let mut boxes = vec![Aabb::EMPTY; count];
         for (t, &c) in of_triangle.iter().enumerate() {

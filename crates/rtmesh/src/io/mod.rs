@@ -15,6 +15,7 @@ mod ply;
 mod reference;
 mod stl;
 
+pub use gltf::GltfDocument;
 pub use reference::MAX_REFERENCED_BYTES;
 
 use crate::mesh::Scene;
@@ -196,6 +197,37 @@ fn read_counted<R: BufRead>(
     Ok(scene)
 }
 
+/// What a file held beyond the mesh model, kept with the scene so that a writer of the
+/// same format writes it back unchanged.
+#[derive(Clone, Debug)]
+pub enum Document {
+    /// OBJ: the `mtllib` references, as written (the files are not copied).
+    Obj {
+        /// Each `mtllib` statement's argument, in file order.
+        material_libraries: Vec<String>,
+    },
+    /// glTF/GLB: the whole document and its buffers.
+    Gltf(Box<GltfDocument>),
+}
+
+impl PartialEq for Document {
+    fn eq(&self, other: &Self) -> bool {
+        match (self, other) {
+            (
+                Self::Obj { material_libraries },
+                Self::Obj {
+                    material_libraries: theirs,
+                },
+            ) => material_libraries == theirs,
+            (Self::Gltf(a), Self::Gltf(b)) => {
+                a.buffers == b.buffers
+                    && serde_json::to_value(&a.root).ok() == serde_json::to_value(&b.root).ok()
+            }
+            _ => false,
+        }
+    }
+}
+
 /// What a writer changed because the format could not hold it.
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct WriteNotes {
@@ -203,6 +235,12 @@ pub struct WriteNotes {
     /// triangles collapsed onto one of their finite corners: glTF forbids non-finite
     /// positions. They keep their place in the triangle order and cover nothing.
     pub inactive_collapsed: usize,
+    /// Normals and tangents that were not unit length (or not finite) written
+    /// renormalized: glTF asks for unit vectors.
+    pub normals_renormalized: usize,
+    /// Vertices whose float skin weights did not sum to one, written scaled so that
+    /// they do: glTF asks for normalized weights.
+    pub weights_renormalized: usize,
 }
 
 /// Write `scene` to `path` in the format its extension names. OBJ, PLY and STL hold
@@ -218,8 +256,7 @@ pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
         Format::Ply => ply::write(&scene.flatten(), path).map_err(io_error)?,
         Format::Stl => stl::write(&scene.flatten(), path).map_err(io_error)?,
         Format::Gltf | Format::Glb => {
-            notes.inactive_collapsed =
-                gltf::write(scene, path, format == Format::Glb).map_err(io_error)?;
+            notes = gltf::write(scene, path, format == Format::Glb).map_err(io_error)?;
         }
     }
     Ok(notes)

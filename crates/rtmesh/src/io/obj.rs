@@ -6,10 +6,18 @@
 //! (`reference.rs`: inside the OBJ's folder, regular files, size-limited): `map_d` or
 //! `d < 1` marks them alpha-tested. A missing `.mtl` is not an error (many files ship
 //! without one); one that breaks the rule is.
+//!
+//! Texture coordinates (`vt`), normals (`vn`) and vertex colours after the position
+//! (`v x y z r g b`) become the attributes `TEXCOORD_0`, `NORMAL` and `COLOR_0`: each
+//! distinct (position, texture coordinate, normal) triple of a geometry is one vertex,
+//! so seams stay. (A corner without `vt` in a file that has some takes tobj's fallback,
+//! the geometry's previous one.) The `mtllib` references are kept as written and
+//! written back (the files are not copied), with `usemtl` per run of material.
 
 use super::{CountingReader, MeshError};
-use crate::mesh::{Material, Scene, TriMesh};
+use crate::mesh::{Material, Scene, TriMesh, VertexAttribute};
 use glam::{Affine3A, Vec3};
+use std::collections::HashMap;
 use std::io::{BufRead, Read, Write};
 use std::path::Path;
 
@@ -70,11 +78,7 @@ pub(super) fn read<R: BufRead>(
     let mut faces_before = 0usize;
     for model in &models {
         let mesh = &model.mesh;
-        let positions: Vec<Vec3> = mesh
-            .positions
-            .chunks_exact(3)
-            .map(|p| Vec3::new(p[0], p[1], p[2]))
-            .collect();
+        let ((positions, streams), corner_vertex) = vertices_of(mesh);
         let material = mesh.material_id.map_or_else(
             || {
                 needs_default = true;
@@ -100,7 +104,7 @@ pub(super) fn read<R: BufRead>(
             }
         };
         let base = target.positions.len() as u32;
-        target.positions.extend(positions);
+        target.extend_vertices(positions.into_iter(), streams);
         // tobj leaves `face_arities` empty when every face is a triangle.
         let arities = if mesh.face_arities.is_empty() {
             vec![3; mesh.indices.len() / 3]
@@ -109,7 +113,7 @@ pub(super) fn read<R: BufRead>(
         };
         let mut start = 0usize;
         for (face, &arity) in arities.iter().enumerate() {
-            let corners = &mesh.indices[start..start + arity as usize];
+            let corners = &corner_vertex[start..start + arity as usize];
             start += arity as usize;
             if arity < 3 {
                 let line = nth_face_line(&text, faces_before + face);
@@ -127,6 +131,7 @@ pub(super) fn read<R: BufRead>(
                 ]);
                 target.material_ids.push(material);
                 target.alpha_tested.push(alpha);
+                target.group_ids.push(0);
             }
         }
         faces_before += arities.len();
@@ -136,12 +141,90 @@ pub(super) fn read<R: BufRead>(
             .filter(|line| statement_is(line, b"v"))
             .count(),
     );
+    let material_libraries: Vec<String> = text
+        .split(|&b| b == b'\n')
+        .filter(|line| statement_is(line, b"mtllib"))
+        .map(|line| String::from_utf8_lossy(line.trim_ascii()[6..].trim_ascii()).into_owned())
+        .collect();
+    if !material_libraries.is_empty() {
+        scene.document = Some(std::sync::Arc::new(super::Document::Obj {
+            material_libraries,
+        }));
+    }
     scene.read_notes.ignored_lines = ignored_lines;
     scene.read_notes.ignored_points = ignored_points;
     if needs_default || scene.materials.is_empty() {
         scene.materials.push(Material::default());
     }
     Ok(scene)
+}
+
+/// The vertices of one tobj model, each distinct (position, texture coordinate, normal)
+/// triple of its corners once, in order of first use: positions and attribute streams,
+/// and the vertex of every corner. A model with neither `vt` nor `vn` keeps tobj's
+/// vertices as they are.
+#[allow(clippy::type_complexity)]
+fn vertices_of(mesh: &tobj::Mesh) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32>) {
+    let position = |v: usize| {
+        Vec3::new(
+            mesh.positions[3 * v],
+            mesh.positions[3 * v + 1],
+            mesh.positions[3 * v + 2],
+        )
+    };
+    let colour = |v: usize| -> [f32; 3] { std::array::from_fn(|c| mesh.vertex_color[3 * v + c]) };
+    let has_colour = mesh.vertex_color.len() == mesh.positions.len();
+    let uv = (!mesh.texcoord_indices.is_empty()).then_some(&mesh.texcoord_indices);
+    let normal = (!mesh.normal_indices.is_empty()).then_some(&mesh.normal_indices);
+    let (mut positions, mut uvs, mut normals, mut colours) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let corners = if uv.is_none() && normal.is_none() {
+        let n = mesh.positions.len() / 3;
+        positions.extend((0..n).map(position));
+        if has_colour {
+            colours.extend((0..n).map(colour));
+        }
+        mesh.indices.clone()
+    } else {
+        let mut vertex_of: HashMap<(u32, u32, u32), u32> =
+            HashMap::with_capacity(mesh.indices.len());
+        (0..mesh.indices.len())
+            .map(|c| {
+                let key = (
+                    mesh.indices[c],
+                    uv.map_or(0, |i| i[c]),
+                    normal.map_or(0, |i| i[c]),
+                );
+                *vertex_of.entry(key).or_insert_with(|| {
+                    let v = key.0 as usize;
+                    positions.push(position(v));
+                    if uv.is_some() {
+                        let t = key.1 as usize;
+                        uvs.push([mesh.texcoords[2 * t], mesh.texcoords[2 * t + 1]]);
+                    }
+                    if normal.is_some() {
+                        let n = key.2 as usize;
+                        normals.push([0, 1, 2].map(|c| mesh.normals[3 * n + c]));
+                    }
+                    if has_colour {
+                        colours.push(colour(v));
+                    }
+                    positions.len() as u32 - 1
+                })
+            })
+            .collect()
+    };
+    let mut streams = Vec::new();
+    if uv.is_some() {
+        streams.push(VertexAttribute::from_f32("TEXCOORD_0", &uvs));
+    }
+    if normal.is_some() {
+        streams.push(VertexAttribute::from_f32("NORMAL", &normals));
+    }
+    if has_colour {
+        streams.push(VertexAttribute::from_f32("COLOR_0", &colours));
+    }
+    ((positions, streams), corners)
 }
 
 /// Whether `line` is a statement of `keyword`.
@@ -257,6 +340,11 @@ fn nth_face_line(text: &[u8], n: usize) -> usize {
 pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
     writeln!(out, "# written by rtmesh {}", env!("CARGO_PKG_VERSION"))?;
+    if let Some(super::Document::Obj { material_libraries }) = scene.document.as_deref() {
+        for library in material_libraries {
+            writeln!(out, "mtllib {library}")?;
+        }
+    }
     let mut base = 1usize;
     for (i, instance) in scene.instances.iter().enumerate() {
         let mesh = &scene.meshes[instance.mesh];
@@ -266,10 +354,34 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
             mesh.name.replace(char::is_whitespace, "_")
         };
         writeln!(out, "o {name}")?;
-        for p in &mesh.positions {
+        let colour = mesh.attribute("COLOR_0");
+        for (v, p) in mesh.positions.iter().enumerate() {
             // `{}` prints the shortest decimal that reads back to the same f32.
             let p = instance.transform.transform_point3(*p);
-            writeln!(out, "v {} {} {}", p.x, p.y, p.z)?;
+            write!(out, "v {} {} {}", p.x, p.y, p.z)?;
+            if let Some(colour) = colour {
+                for c in 0..colour.components.min(3) {
+                    write!(out, " {}", colour.get(v, c) as f32)?;
+                }
+            }
+            writeln!(out)?;
+        }
+        let uv = mesh.attribute("TEXCOORD_0");
+        if let Some(uv) = uv {
+            for v in 0..mesh.positions.len() {
+                writeln!(out, "vt {} {}", uv.get(v, 0) as f32, uv.get(v, 1) as f32)?;
+            }
+        }
+        let normal = mesh.attribute("NORMAL").map(|n| {
+            let mut n = n.clone();
+            n.transform(glam::Mat3::from(instance.transform.matrix3));
+            n
+        });
+        if let Some(normal) = &normal {
+            for v in 0..mesh.positions.len() {
+                let [x, y, z] = [0, 1, 2].map(|c| normal.get(v, c) as f32);
+                writeln!(out, "vn {x} {y} {z}")?;
+            }
         }
         let mut material = None;
         for (t, tri) in mesh.triangles.iter().enumerate() {
@@ -283,8 +395,17 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
                     writeln!(out, "usemtl {}", named.name)?;
                 }
             }
-            let [a, b, c] = tri.map(|v| v as usize + base);
-            writeln!(out, "f {a} {b} {c}")?;
+            write!(out, "f")?;
+            // v, vt and vn lines are one per vertex, so one index names all three.
+            for v in tri.map(|v| v as usize + base) {
+                match (uv.is_some(), normal.is_some()) {
+                    (false, false) => write!(out, " {v}")?,
+                    (true, false) => write!(out, " {v}/{v}")?,
+                    (false, true) => write!(out, " {v}//{v}")?,
+                    (true, true) => write!(out, " {v}/{v}/{v}")?,
+                }
+            }
+            writeln!(out)?;
         }
         base += mesh.positions.len();
     }

@@ -12,7 +12,7 @@
 //! group, the vertices rotated to start at the smallest are equal when the winding is.
 //! Cost: O(T log T) for the sort, plus the exact weld; 16 bytes per triangle.
 
-use super::{has_edges, weld_exact, TriMesh};
+use super::{has_edges, TriMesh};
 use rayon::prelude::*;
 
 /// The copies in a mesh, by triangle id (ascending).
@@ -28,7 +28,7 @@ pub struct Duplicates {
 
 /// The duplicate triangles of `mesh`.
 pub fn duplicates(mesh: &TriMesh) -> Duplicates {
-    let welded = weld_exact(mesh).mesh;
+    let welded = mesh.topology();
     // The corners rotated to start at the smallest: equal when the winding is.
     let rotated = |t: usize| {
         let tri = welded.triangles[t];

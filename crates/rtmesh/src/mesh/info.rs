@@ -3,7 +3,7 @@
 //! tools count a file; the instanced (world) counts stand beside them.
 //! Cost: one concatenation, one weld (hashing, O(V)) and one adjacency build (O(T)).
 
-use super::{connected_components, validate, weld_exact, EdgeAdjacency, Scene};
+use super::{connected_components, validate, EdgeAdjacency, Scene};
 use crate::geom::Aabb;
 use serde::Serialize;
 
@@ -52,7 +52,7 @@ impl MeshInfo {
     /// Compute the summary of `scene`.
     pub fn of(scene: &Scene) -> Self {
         let flat = scene.stored_geometry();
-        let welded = weld_exact(&flat).mesh;
+        let welded = flat.topology();
         let adjacency = EdgeAdjacency::build(&welded);
         let validation = validate(&flat);
         Self {

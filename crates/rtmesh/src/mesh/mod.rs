@@ -1,10 +1,15 @@
 //! The mesh model: [`TriMesh`] (one geometry) and [`Scene`] (geometries plus instances).
 //!
 //! Positions are f32, triangles are u32 vertex indices. Every triangle carries a material
-//! id and an alpha-tested flag, so that lint and repair can separate opaque from
-//! alpha-tested geometry (NVIDIA's advice) and writers can keep materials.
+//! id, an alpha-tested flag (so that lint and repair can separate opaque from
+//! alpha-tested geometry, NVIDIA's advice) and a group (the glTF primitive it came
+//! from). Every vertex carries its [`VertexAttribute`] streams. Topology comes from
+//! positions ([`TriMesh::topology`]), so adjacency crosses UV seams and normal creases,
+//! while the vertices keep them: no operation merges two vertices whose attributes
+//! differ.
 
 mod adjacency;
+mod attributes;
 mod duplicates;
 mod info;
 mod validate;
@@ -12,6 +17,8 @@ mod weld;
 
 pub use adjacency::{connected_components, EdgeAdjacency, NO_EDGE};
 pub(crate) use adjacency::{has_edges, part_cursors, triangle_part_len, HalfEdgeRuns, SharedSlice};
+pub(crate) use attributes::gather_all;
+pub use attributes::{morph_name, AttributeValues, Semantic, VertexAttribute, MORPH_PREFIX};
 pub use duplicates::{duplicates, Duplicates};
 pub use info::MeshInfo;
 pub use validate::{validate, Validation};
@@ -44,6 +51,13 @@ pub struct TriMesh {
     pub material_ids: Vec<u32>,
     /// Per triangle: true when the triangle's material is alpha-tested.
     pub alpha_tested: Vec<bool>,
+    /// Per triangle: its group, the primitive of the source document it came from (a
+    /// glTF primitive, numbered over the whole file in mesh order; 0 for formats
+    /// without primitives). Writers emit one primitive per run of equal group.
+    pub group_ids: Vec<u32>,
+    /// Per-vertex attributes besides the position, each holding one value per vertex
+    /// of `positions`.
+    pub attributes: Vec<VertexAttribute>,
 }
 
 impl TriMesh {
@@ -56,7 +70,114 @@ impl TriMesh {
             triangles,
             material_ids: vec![0; n],
             alpha_tested: vec![false; n],
+            group_ids: vec![0; n],
+            attributes: Vec::new(),
         }
+    }
+
+    /// The attribute called `name`, if the mesh has it.
+    pub fn attribute(&self, name: &str) -> Option<&VertexAttribute> {
+        self.attributes.iter().find(|a| a.name == name)
+    }
+
+    /// Group of triangle `t` (0 where none was recorded).
+    #[inline]
+    pub fn group_of(&self, t: usize) -> u32 {
+        self.group_ids.get(t).copied().unwrap_or(0)
+    }
+
+    /// Set the per-triangle material, alpha flag and group of every triangle from
+    /// triangle `sources[t]` of `source`.
+    pub fn take_triangle_data(&mut self, source: &TriMesh, sources: &[u32]) {
+        let pick = |t: u32| t as usize;
+        self.material_ids = sources
+            .iter()
+            .map(|&t| source.material_ids[pick(t)])
+            .collect();
+        self.alpha_tested = sources
+            .iter()
+            .map(|&t| source.alpha_tested[pick(t)])
+            .collect();
+        self.group_ids = sources.iter().map(|&t| source.group_of(pick(t))).collect();
+    }
+
+    /// Append one triangle with the material, alpha flag and group of `source`'s
+    /// triangle `t`.
+    pub fn push_triangle_like(&mut self, triangle: [u32; 3], source: &TriMesh, t: usize) {
+        self.group_ids.resize(self.triangles.len(), 0);
+        self.triangles.push(triangle);
+        self.material_ids.push(source.material_ids[t]);
+        self.alpha_tested.push(source.alpha_tested[t]);
+        self.group_ids.push(source.group_of(t));
+    }
+
+    /// Append vertices: their positions and the streams `read` (one value per new
+    /// vertex each). A stream new to the mesh gets zeros for the vertices before, and a
+    /// stream `read` lacks gets zeros for the new vertices (a writer of glTF writes
+    /// each primitive's own attributes only).
+    pub fn extend_vertices(
+        &mut self,
+        positions: impl Iterator<Item = Vec3>,
+        read: Vec<VertexAttribute>,
+    ) {
+        let base = self.positions.len();
+        self.positions.extend(positions);
+        let count = self.positions.len() - base;
+        let before = self.attributes.len();
+        let mut filled = vec![false; before];
+        for attribute in read {
+            match self
+                .attributes
+                .iter()
+                .position(|a| a.name == attribute.name)
+            {
+                Some(i) => {
+                    self.attributes[i].append(&attribute);
+                    if i < before {
+                        filled[i] = true;
+                    }
+                }
+                None => {
+                    let mut stream = attribute.gather(&[]);
+                    stream.push_zeros(base);
+                    stream.append(&attribute);
+                    self.attributes.push(stream);
+                }
+            }
+        }
+        for (attribute, _) in self.attributes.iter_mut().zip(filled).filter(|(_, f)| !f) {
+            attribute.push_zeros(count);
+        }
+    }
+
+    /// Append `triangle` with the material, alpha flag and group of this mesh's
+    /// triangle `t` (a triangle split from it).
+    pub fn push_triangle_like_self(&mut self, t: usize, triangle: [u32; 3]) {
+        self.group_ids.resize(self.triangles.len(), 0);
+        self.triangles.push(triangle);
+        self.material_ids.push(self.material_ids[t]);
+        self.alpha_tested.push(self.alpha_tested[t]);
+        self.group_ids.push(self.group_of(t));
+    }
+
+    /// Append vertex `v` of `source` (its position and every attribute); the streams
+    /// must match (a mesh gathered from `source`). Returns the new vertex's index.
+    pub fn push_vertex_like(&mut self, source: &TriMesh, v: usize) -> u32 {
+        if self.positions.is_empty() {
+            self.attributes = source.attributes.iter().map(|a| a.gather(&[])).collect();
+        }
+        self.positions.push(source.positions[v]);
+        for (out, from) in self.attributes.iter_mut().zip(&source.attributes) {
+            out.append_vertex_of(from, v);
+        }
+        self.positions.len() as u32 - 1
+    }
+
+    /// The mesh positions alone see: vertices welded by exact position, attributes
+    /// dropped, same triangles in the same order. Adjacency, pairing and pieces run on
+    /// it, so that they cross UV seams and normal creases.
+    pub fn topology(&self) -> TriMesh {
+        weld::weld_positions(self)
     }
 
     /// No triangle is alpha-tested: the geometry may carry DXR's
@@ -111,10 +232,30 @@ impl TriMesh {
             .fold(Aabb::EMPTY, |b, (&p, _)| b.grown_by_point(p))
     }
 
-    /// Append `other`, with its vertices moved by `transform`; material ids are offset by
-    /// `material_offset`.
+    /// Append `other`, with its vertices moved by `transform` (normals and tangents
+    /// turned with them); material ids are offset by `material_offset`. Attribute
+    /// streams are matched by name; a vertex from a mesh without one gets zeros.
     pub fn append(&mut self, other: &TriMesh, transform: &Affine3A, material_offset: u32) {
         let base = self.positions.len() as u32;
+        let added = other.positions.len();
+        for attribute in &other.attributes {
+            if self.attribute(&attribute.name).is_none() {
+                let mut missing = attribute.gather(&[]);
+                missing.push_zeros(base as usize);
+                self.attributes.push(missing);
+            }
+        }
+        let linear = glam::Mat3::from(transform.matrix3);
+        for attribute in &mut self.attributes {
+            match other.attributes.iter().find(|a| a.name == attribute.name) {
+                Some(from) => {
+                    let mut from = from.clone();
+                    from.transform(linear);
+                    attribute.append(&from);
+                }
+                None => attribute.push_zeros(added),
+            }
+        }
         self.positions.extend(
             other
                 .positions
@@ -130,6 +271,8 @@ impl TriMesh {
         self.material_ids
             .extend(other.material_ids.iter().map(|m| m + material_offset));
         self.alpha_tested.extend_from_slice(&other.alpha_tested);
+        self.group_ids
+            .extend((0..other.triangle_count()).map(|t| other.group_of(t)));
     }
 }
 
@@ -140,6 +283,20 @@ pub struct Instance {
     pub mesh: usize,
     /// Object-to-world affine transform.
     pub transform: Affine3A,
+    /// The node of the source document that placed it (glTF), so that a writer of the
+    /// same format puts it back there; `None` for an instance rtmesh made.
+    pub source_node: Option<u32>,
+}
+
+impl Instance {
+    /// Mesh `mesh` placed by `transform`, from no source node.
+    pub fn new(mesh: usize, transform: Affine3A) -> Self {
+        Self {
+            mesh,
+            transform,
+            source_node: None,
+        }
+    }
 }
 
 /// Geometries and their placements: the input of a two-level (TLAS/BLAS) structure.
@@ -157,6 +314,9 @@ pub struct Scene {
     pub source_vertex_count: Option<usize>,
     /// What the reader dropped or changed on the way in, by documented rule.
     pub read_notes: ReadNotes,
+    /// What the source file held beyond this model (the glTF document, OBJ material
+    /// libraries), for a writer of the same format to write back unchanged.
+    pub document: Option<std::sync::Arc<crate::io::Document>>,
 }
 
 /// The documented repairs a reader made, counted (all zero for a scene not read from a
@@ -177,13 +337,11 @@ impl Scene {
     pub fn from_mesh(mesh: TriMesh) -> Self {
         Self {
             meshes: vec![mesh],
-            instances: vec![Instance {
-                mesh: 0,
-                transform: Affine3A::IDENTITY,
-            }],
+            instances: vec![Instance::new(0, Affine3A::IDENTITY)],
             materials: vec![Material::default()],
             source_vertex_count: None,
             read_notes: ReadNotes::default(),
+            document: None,
         }
     }
 
@@ -191,10 +349,7 @@ impl Scene {
     pub fn push_mesh(&mut self, mesh: TriMesh, transform: Affine3A) -> usize {
         self.meshes.push(mesh);
         let index = self.meshes.len() - 1;
-        self.instances.push(Instance {
-            mesh: index,
-            transform,
-        });
+        self.instances.push(Instance::new(index, transform));
         index
     }
 
@@ -290,10 +445,9 @@ mod tests {
     fn flatten_applies_transforms_in_instance_order() {
         let tri = TriMesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
         let mut scene = Scene::from_mesh(tri);
-        scene.instances.push(Instance {
-            mesh: 0,
-            transform: Affine3A::from_translation(Vec3::Z * 2.0),
-        });
+        scene
+            .instances
+            .push(Instance::new(0, Affine3A::from_translation(Vec3::Z * 2.0)));
         let flat = scene.flatten();
         assert_eq!(flat.triangles, vec![[0, 1, 2], [3, 4, 5]]);
         assert_eq!(flat.positions[3], Vec3::new(0.0, 0.0, 2.0));

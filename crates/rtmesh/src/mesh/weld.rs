@@ -6,6 +6,8 @@
 //! size and compares against the 27 neighbouring cells: O(V) expected for tolerances
 //! smaller than the typical edge. Each merged vertex takes the position of the first
 //! vertex (in index order) of its group, so exact welding never moves any triangle.
+//! Vertices merge only when every attribute agrees too (bit for bit), so seams stay;
+//! [`TriMesh::topology`] welds by position alone for adjacency.
 
 use super::TriMesh;
 use glam::Vec3;
@@ -37,59 +39,98 @@ fn position_key(p: Vec3) -> [u32; 3] {
 }
 
 /// Merge vertices whose positions are within `tolerance` of each other (Chebyshev
-/// distance, per axis); `tolerance == 0` merges only identical positions. Non-finite
-/// positions are never merged with anything.
+/// distance, per axis) and whose attributes are bit-identical: seams and creases stay,
+/// so no output vertex stands for two inputs that differ. `tolerance == 0` merges only
+/// identical positions. Non-finite positions are never merged with anything.
 pub fn weld(mesh: &TriMesh, tolerance: f32) -> WeldResult {
+    weld_by(mesh, tolerance, true)
+}
+
+/// Exact weld by position alone, attributes dropped: [`TriMesh::topology`].
+pub(super) fn weld_positions(mesh: &TriMesh) -> TriMesh {
+    weld_by(mesh, 0.0, false).mesh
+}
+
+/// The weld; with `keep_attributes`, vertices must also agree in every attribute, and
+/// the output carries them.
+fn weld_by(mesh: &TriMesh, tolerance: f32, keep_attributes: bool) -> WeldResult {
+    let keyed = keep_attributes && !mesh.attributes.is_empty();
+    let attribute_key = |v: usize| -> Vec<u8> {
+        let mut key = Vec::new();
+        if keyed {
+            for attribute in &mesh.attributes {
+                attribute.push_vertex_bytes(v, &mut key);
+            }
+        }
+        key
+    };
     let mut remap = Vec::with_capacity(mesh.positions.len());
-    let mut positions: Vec<Vec3> = Vec::new();
+    // The input vertex each output vertex is (the first of its group).
+    let mut representative: Vec<u32> = Vec::new();
+    let new_vertex = |representative: &mut Vec<u32>, v: usize| {
+        representative.push(v as u32);
+        representative.len() as u32 - 1
+    };
     if tolerance > 0.0 && tolerance.is_finite() {
         let inverse_cell = 1.0 / tolerance;
         let cell_of = |p: Vec3| (p * inverse_cell).floor().as_ivec3();
         let mut grid: HashMap<glam::IVec3, Vec<u32>> = HashMap::new();
-        for &p in &mesh.positions {
+        for (v, &p) in mesh.positions.iter().enumerate() {
             if !p.is_finite() {
-                remap.push(positions.len() as u32);
-                positions.push(p);
+                remap.push(new_vertex(&mut representative, v));
                 continue;
             }
             let cell = cell_of(p);
+            let key = attribute_key(v);
             let mut found = None;
             'search: for dz in -1..=1 {
                 for dy in -1..=1 {
                     for dx in -1..=1 {
-                        let key = cell + glam::IVec3::new(dx, dy, dz);
-                        if let Some(list) = grid.get(&key) {
-                            if let Some(&v) = list.iter().find(|&&v| {
-                                (positions[v as usize] - p).abs().max_element() <= tolerance
+                        let near = cell + glam::IVec3::new(dx, dy, dz);
+                        if let Some(list) = grid.get(&near) {
+                            if let Some(&w) = list.iter().find(|&&w| {
+                                let r = representative[w as usize] as usize;
+                                (mesh.positions[r] - p).abs().max_element() <= tolerance
+                                    && (!keyed || attribute_key(r) == key)
                             }) {
-                                found = Some(v);
+                                found = Some(w);
                                 break 'search;
                             }
                         }
                     }
                 }
             }
-            let v = found.unwrap_or_else(|| {
-                let v = positions.len() as u32;
-                positions.push(p);
-                grid.entry(cell).or_default().push(v);
-                v
+            let w = found.unwrap_or_else(|| {
+                let w = new_vertex(&mut representative, v);
+                grid.entry(cell).or_default().push(w);
+                w
             });
-            remap.push(v);
+            remap.push(w);
+        }
+    } else if keyed {
+        let mut seen: HashMap<([u32; 3], Vec<u8>), u32> =
+            HashMap::with_capacity(mesh.positions.len());
+        for (v, &p) in mesh.positions.iter().enumerate() {
+            let w = if p.is_finite() {
+                *seen
+                    .entry((position_key(p), attribute_key(v)))
+                    .or_insert_with(|| new_vertex(&mut representative, v))
+            } else {
+                new_vertex(&mut representative, v)
+            };
+            remap.push(w);
         }
     } else {
         let mut seen: HashMap<[u32; 3], u32> = HashMap::with_capacity(mesh.positions.len());
-        for &p in &mesh.positions {
-            let v = if p.is_finite() {
-                *seen.entry(position_key(p)).or_insert_with(|| {
-                    positions.push(p);
-                    positions.len() as u32 - 1
-                })
+        for (v, &p) in mesh.positions.iter().enumerate() {
+            let w = if p.is_finite() {
+                *seen
+                    .entry(position_key(p))
+                    .or_insert_with(|| new_vertex(&mut representative, v))
             } else {
-                positions.push(p);
-                positions.len() as u32 - 1
+                new_vertex(&mut representative, v)
             };
-            remap.push(v);
+            remap.push(w);
         }
     }
     let triangles = mesh
@@ -97,14 +138,23 @@ pub fn weld(mesh: &TriMesh, tolerance: f32) -> WeldResult {
         .iter()
         .map(|t| t.map(|v| remap.get(v as usize).copied().unwrap_or(v)))
         .collect();
-    let merged = mesh.positions.len() - positions.len();
+    let merged = mesh.positions.len() - representative.len();
     WeldResult {
         mesh: TriMesh {
             name: mesh.name.clone(),
-            positions,
+            positions: representative
+                .iter()
+                .map(|&v| mesh.positions[v as usize])
+                .collect(),
             triangles,
             material_ids: mesh.material_ids.clone(),
             alpha_tested: mesh.alpha_tested.clone(),
+            group_ids: mesh.group_ids.clone(),
+            attributes: if keep_attributes {
+                super::gather_all(&mesh.attributes, &representative)
+            } else {
+                Vec::new()
+            },
         },
         remap,
         merged,
@@ -145,6 +195,30 @@ mod tests {
         m.positions[3] = Vec3::new(1e-4, 0.0, 0.0);
         assert_eq!(weld(&m, 1e-3).merged, 2);
         assert_eq!(weld(&m, 1e-5).merged, 1);
+    }
+
+    #[test]
+    fn seams_stay_and_topology_crosses_them() {
+        let mut m = soup_quad();
+        // The diagonal's two copies differ in UV on one end: a seam.
+        m.attributes.push(crate::mesh::VertexAttribute::from_f32(
+            "TEXCOORD_0",
+            &[
+                [0.0, 0.0],
+                [1.0, 0.0],
+                [1.0, 1.0],
+                [0.5, 0.0],
+                [1.0, 1.0],
+                [0.0, 1.0],
+            ],
+        ));
+        let r = weld_exact(&m);
+        assert_eq!(r.merged, 1);
+        assert_eq!(r.mesh.triangles, vec![[0, 1, 2], [3, 2, 4]]);
+        assert_eq!(r.mesh.attributes[0].vertex(3), vec![0.5, 0.0]);
+        let topology = m.topology();
+        assert_eq!(topology.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+        assert!(topology.attributes.is_empty());
     }
 
     #[test]

@@ -208,9 +208,10 @@ pub struct PairReport {
     pub prescan_skipped: bool,
 }
 
-/// Weld and pair every geometry of `scene` in place: each mesh becomes its paired,
-/// reordered form (pairs first, as consecutive triangles, then the unpaired ones), its
-/// vertices as they were. The report sums the geometries.
+/// Pair every geometry of `scene` in place, on its topology (vertices welded by
+/// position, so pairs cross UV seams): each mesh becomes its paired, reordered form
+/// (pairs first, as consecutive triangles, then the unpaired ones), its vertices and
+/// attributes as they were. The report sums the geometries.
 pub fn pair_scene(scene: &mut crate::Scene, settings: &PairSettings) -> PairReport {
     let mut total = PairReport {
         triangles: 0,
@@ -221,9 +222,9 @@ pub fn pair_scene(scene: &mut crate::Scene, settings: &PairSettings) -> PairRepo
         prescan_skipped: !scene.meshes.is_empty(),
     };
     for mesh in &mut scene.meshes {
-        let welded = crate::mesh::weld_exact(mesh).mesh;
-        let (pairing, report) = pair(&welded, settings);
-        *mesh = reorder(mesh, &welded, &pairing).mesh;
+        let topology = mesh.topology();
+        let (pairing, report) = pair(&topology, settings);
+        *mesh = reorder(mesh, &topology, &pairing).mesh;
         total.triangles += report.triangles;
         total.paired_triangles += report.paired_triangles;
         total.seconds += report.seconds;
@@ -278,7 +279,7 @@ pub fn weld_and_pair(scene: &crate::Scene, method: PairMethod) -> (crate::Scene,
         .meshes
         .iter_mut()
         .map(|mesh| {
-            *mesh = crate::mesh::weld_exact(mesh).mesh;
+            *mesh = mesh.topology();
             pair(mesh, &settings).0
         })
         .collect();
@@ -368,7 +369,8 @@ pub fn rotate(t: [u32; 3], r: usize) -> [u32; 3] {
 /// then the unpaired triangles.
 #[derive(Clone, Debug)]
 pub struct PairedMesh {
-    /// The reordered mesh (same vertices, triangles rotated and reordered).
+    /// The reordered mesh (same vertices and attributes, triangles rotated and
+    /// reordered).
     pub mesh: TriMesh,
     /// `input_triangle[i]` is the input id of output triangle `i`.
     pub input_triangle: Vec<u32>,
@@ -397,16 +399,14 @@ pub fn reorder(mesh: &TriMesh, topology: &TriMesh, pairing: &Pairing) -> PairedM
         triangles.push(mesh.triangles[t as usize]);
         input_triangle.push(t);
     }
-    let mut out = TriMesh::new(mesh.positions.clone(), triangles);
-    out.name = mesh.name.clone();
-    out.material_ids = input_triangle
-        .iter()
-        .map(|&t| mesh.material_ids[t as usize])
-        .collect();
-    out.alpha_tested = input_triangle
-        .iter()
-        .map(|&t| mesh.alpha_tested[t as usize])
-        .collect();
+    let mut out = TriMesh {
+        name: mesh.name.clone(),
+        positions: mesh.positions.clone(),
+        triangles,
+        attributes: mesh.attributes.clone(),
+        ..TriMesh::default()
+    };
+    out.take_triangle_data(mesh, &input_triangle);
     PairedMesh {
         mesh: out,
         input_triangle,

@@ -1,16 +1,23 @@
 //! glTF 2.0 and GLB through the gltf crate. Each glTF mesh becomes one geometry (its
-//! primitives in order, materials per triangle); each node that holds a mesh becomes an
-//! instance with its world transform; `alphaMode` MASK or BLEND marks a material
-//! alpha-tested. Triangle strips and fans are turned into triangles; point and line
-//! primitives are not triangles and are skipped. Every accessor is bounds-checked
-//! against its buffer before it is read, so a lying file is an error, not a panic.
+//! triangle primitives in order, each triangle's group naming its primitive, materials
+//! per triangle, every vertex attribute and morph-target delta kept as the typed values
+//! stored); each node that holds a mesh becomes an instance with its world transform;
+//! `alphaMode` MASK or BLEND marks a material alpha-tested. Triangle strips and fans
+//! are turned into triangles; point and line primitives are not triangles, so they are
+//! left in the document, which the scene keeps whole ([`GltfDocument`]) for the writer
+//! (`write.rs`). Every accessor is bounds-checked against its buffer before it is read,
+//! so a lying file is an error, not a panic.
+
+mod write;
+
+pub(super) use write::write;
 
 use super::{CountingReader, MeshError};
-use crate::mesh::{Instance, Material, Scene, TriMesh};
+use crate::mesh::{
+    morph_name, AttributeValues, Instance, Material, Scene, TriMesh, VertexAttribute,
+};
 use glam::{Affine3A, DMat4, Mat4, Vec3};
 use gltf::mesh::Mode;
-use serde_json::json;
-use std::borrow::Cow;
 use std::io::{BufRead, Read};
 use std::path::Path;
 
@@ -63,13 +70,19 @@ pub(super) fn read<R: BufRead>(
     let default_material = scene.materials.len() as u32;
     scene.materials.push(Material::default());
 
+    // Groups number the primitives over the whole file, in mesh order.
+    let mut group = 0u32;
     for mesh in document.meshes() {
         let mut out = TriMesh {
             name: mesh.name().unwrap_or_default().to_owned(),
             ..TriMesh::default()
         };
-        let mut shared_positions: Option<(usize, u32)> = None;
+        // The accessors of the last primitive read, and where its vertices start:
+        // primitives with the same accessors share vertices.
+        let mut shared: Option<(Vec<usize>, u32)> = None;
         for (p, primitive) in mesh.primitives().enumerate() {
+            let g = group;
+            group += 1;
             let context = |what: &str| {
                 format!(
                     "mesh {} ('{}') primitive {p}: {what}",
@@ -113,17 +126,51 @@ pub(super) fn read<R: BufRead>(
                     ));
                 }
             }
+            let mut streams: Vec<(String, gltf::Accessor)> = primitive
+                .attributes()
+                .filter(|(semantic, _)| *semantic != gltf::Semantic::Positions)
+                .map(|(semantic, accessor)| (semantic.to_string(), accessor))
+                .collect();
+            for (k, target) in primitive.morph_targets().enumerate() {
+                for (name, accessor) in [
+                    ("POSITION", target.positions()),
+                    ("NORMAL", target.normals()),
+                    ("TANGENT", target.tangents()),
+                ] {
+                    if let Some(accessor) = accessor {
+                        streams.push((morph_name(k, name), accessor));
+                    }
+                }
+            }
+            let signature: Vec<usize> = std::iter::once(position_accessor.index())
+                .chain(streams.iter().map(|(_, a)| a.index()))
+                .collect();
             let data = primitive.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-            // Primitives that share one POSITION accessor share vertices.
-            let base = match shared_positions {
-                Some((accessor, base)) if accessor == position_accessor.index() => base,
+            let base = match &shared {
+                Some((accessors, base)) if *accessors == signature => *base,
                 _ => {
                     let base = out.positions.len() as u32;
+                    let count = position_accessor.count();
                     let positions = data
                         .read_positions()
                         .ok_or_else(|| MeshError::invalid(path, context("unreadable POSITION")))?;
-                    out.positions.extend(positions.map(Vec3::from_array));
-                    shared_positions = Some((position_accessor.index(), base));
+                    let mut read = Vec::with_capacity(streams.len());
+                    for (name, accessor) in &streams {
+                        let attribute = read_attribute(name, accessor, &buffers)
+                            .map_err(|e| MeshError::invalid(path, context(&e)))?;
+                        if accessor.count() != count {
+                            return Err(MeshError::invalid(
+                                path,
+                                context(&format!(
+                                    "{name} has {} elements but POSITION has {count}",
+                                    accessor.count()
+                                )),
+                            ));
+                        }
+                        read.push(attribute);
+                    }
+                    out.extend_vertices(positions.map(Vec3::from_array), read);
+                    shared = Some((signature, base));
                     base
                 }
             };
@@ -143,6 +190,8 @@ pub(super) fn read<R: BufRead>(
                 .extend(std::iter::repeat_n(material, triangles.len()));
             out.alpha_tested
                 .extend(std::iter::repeat_n(alpha, triangles.len()));
+            out.group_ids
+                .extend(std::iter::repeat_n(g, triangles.len()));
         }
         scene.meshes.push(out);
     }
@@ -158,13 +207,90 @@ pub(super) fn read<R: BufRead>(
     if scene.instances.is_empty() {
         // No scene graph: show every mesh once, untransformed.
         scene.instances = (0..scene.meshes.len())
-            .map(|mesh| Instance {
-                mesh,
-                transform: Affine3A::IDENTITY,
-            })
+            .map(|mesh| Instance::new(mesh, Affine3A::IDENTITY))
             .collect();
     }
+    scene.document = Some(std::sync::Arc::new(super::Document::Gltf(Box::new(GltfDocument {
+        root: document.into_json(),
+        buffers: buffers.into_iter().map(|b| b.0).collect(),
+    }))));
     Ok(scene)
+}
+
+/// A glTF file as read: the whole JSON document and the data of its buffers, for the
+/// writer to carry over everything rtmesh does not change.
+#[derive(Clone, Debug)]
+pub struct GltfDocument {
+    pub(crate) root: gltf::json::Root,
+    pub(crate) buffers: Vec<Vec<u8>>,
+}
+
+impl GltfDocument {
+    /// The (mesh, primitive) of every group, in the reader's numbering.
+    pub(crate) fn group_sources(&self) -> Vec<(usize, usize)> {
+        self.root
+            .meshes
+            .iter()
+            .enumerate()
+            .flat_map(|(m, mesh)| (0..mesh.primitives.len()).map(move |p| (m, p)))
+            .collect()
+    }
+}
+
+/// The values of a vertex attribute accessor (checked first), in its stored type.
+fn read_attribute(
+    name: &str,
+    accessor: &gltf::Accessor,
+    buffers: &[gltf::buffer::Data],
+) -> Result<VertexAttribute, String> {
+    use gltf::accessor::{DataType, Dimensions};
+    check_accessor(accessor, buffers)?;
+    let components = match accessor.dimensions() {
+        Dimensions::Scalar => 1,
+        Dimensions::Vec2 => 2,
+        Dimensions::Vec3 => 3,
+        Dimensions::Vec4 => 4,
+        other => {
+            return Err(format!(
+                "attribute {name} (accessor {}) is a {other:?}; vertex attributes rtmesh keeps are SCALAR or VEC2..4",
+                accessor.index()
+            ))
+        }
+    };
+    let view = accessor.view().expect("checked: the accessor has a view");
+    let data = &buffers[view.buffer().index()].0;
+    let size = accessor.data_type().size();
+    let element = size * components;
+    let stride = view.stride().unwrap_or(element);
+    let start = view.offset() + accessor.offset();
+    let bytes = (0..accessor.count()).flat_map(|i| {
+        let at = start + i * stride;
+        data[at..at + element].chunks_exact(size)
+    });
+    macro_rules! typed {
+        ($variant:ident, $t:ty) => {
+            AttributeValues::$variant(
+                bytes
+                    .map(|b| <$t>::from_le_bytes(b.try_into().expect("component size")))
+                    .collect(),
+            )
+        };
+    }
+    let values = match accessor.data_type() {
+        DataType::I8 => typed!(I8, i8),
+        DataType::U8 => typed!(U8, u8),
+        DataType::I16 => typed!(I16, i16),
+        DataType::U16 => typed!(U16, u16),
+        DataType::U32 => typed!(U32, u32),
+        DataType::F32 => typed!(F32, f32),
+    };
+    Ok(VertexAttribute {
+        name: name.to_owned(),
+        components,
+        normalized: accessor.normalized(),
+        values,
+        component_names: Vec::new(),
+    })
 }
 
 /// The data of every buffer: the GLB's binary chunk, a `data:` URI decoded in memory, or
@@ -283,6 +409,7 @@ fn place_nodes(
             instances.push(Instance {
                 mesh: mesh.index(),
                 transform: Affine3A::from_mat4(world.as_mat4()),
+                source_node: Some(index as u32),
             });
         }
         let first_child = stack.len();
@@ -373,177 +500,4 @@ fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> 
         ));
     }
     Ok(())
-}
-
-/// `mesh` as glTF can hold it, which forbids NaN and infinite positions: every triangle
-/// with a non-finite corner (an inactive triangle, as DXR reads NaN) collapsed onto one
-/// of its finite corners (or the mesh's first finite vertex), so that it keeps its place
-/// and covers nothing, and every non-finite position replaced by a finite one. Returns
-/// the mesh and how many triangles were collapsed.
-fn without_non_finite(mesh: &TriMesh) -> (Cow<'_, TriMesh>, usize) {
-    if mesh.positions.iter().all(|p| p.is_finite()) {
-        return (Cow::Borrowed(mesh), 0);
-    }
-    let finite = |v: u32| {
-        mesh.positions
-            .get(v as usize)
-            .is_some_and(|p| p.is_finite())
-    };
-    let first_finite = (0..mesh.positions.len() as u32)
-        .find(|&v| finite(v))
-        .unwrap_or(0);
-    let mut out = mesh.clone();
-    let mut collapsed = 0;
-    for triangle in &mut out.triangles {
-        if !triangle.iter().all(|&v| finite(v)) {
-            let onto = triangle
-                .iter()
-                .copied()
-                .find(|&v| finite(v))
-                .unwrap_or(first_finite);
-            *triangle = [onto; 3];
-            collapsed += 1;
-        }
-    }
-    let fill = mesh
-        .positions
-        .get(first_finite as usize)
-        .copied()
-        .filter(|p| p.is_finite());
-    for p in &mut out.positions {
-        if !p.is_finite() {
-            *p = fill.unwrap_or(Vec3::ZERO);
-        }
-    }
-    (Cow::Owned(out), collapsed)
-}
-
-pub(super) fn write(scene: &Scene, path: &Path, binary: bool) -> std::io::Result<usize> {
-    let mut bin: Vec<u8> = Vec::new();
-    let mut views = Vec::new();
-    let mut accessors = Vec::new();
-    let mut push_view = |bin: &mut Vec<u8>, bytes: &[u8], target: u32| {
-        while !bin.len().is_multiple_of(4) {
-            bin.push(0);
-        }
-        views.push(json!({"buffer": 0, "byteOffset": bin.len(), "byteLength": bytes.len(), "target": target}));
-        bin.extend_from_slice(bytes);
-        views.len() - 1
-    };
-    let mut meshes = Vec::new();
-    let mut collapsed = 0;
-    // glTF has no empty mesh (a primitive needs vertices, an accessor a count): a
-    // geometry without triangles is left out, and nodes placing it keep no mesh.
-    let mut gltf_mesh = vec![None; scene.meshes.len()];
-    for (index, mesh) in scene.meshes.iter().enumerate() {
-        if mesh.triangles.is_empty() {
-            continue;
-        }
-        gltf_mesh[index] = Some(meshes.len());
-        let (mesh, inactive) = without_non_finite(mesh);
-        collapsed += inactive;
-        let mesh = &mesh;
-        let positions: Vec<u8> = mesh
-            .positions
-            .iter()
-            .flat_map(|p| p.to_array())
-            .flat_map(f32::to_le_bytes)
-            .collect();
-        let finite =
-            crate::geom::Aabb::from_points(mesh.positions.iter().filter(|p| p.is_finite()));
-        let (min, max) = if finite.is_empty() {
-            (Vec3::ZERO, Vec3::ZERO)
-        } else {
-            (finite.min, finite.max)
-        };
-        let view = push_view(&mut bin, &positions, 34962);
-        accessors.push(
-            json!({"bufferView": view, "componentType": 5126, "count": mesh.positions.len(),
-            "type": "VEC3", "min": min.to_array(), "max": max.to_array()}),
-        );
-        let position_accessor = accessors.len() - 1;
-        let mut primitives = Vec::new();
-        // One primitive per run of equal material, so triangle order is kept.
-        let mut start = 0;
-        while start < mesh.triangles.len() {
-            let material = mesh.material_ids.get(start).copied().unwrap_or(0);
-            let end = (start..mesh.triangles.len())
-                .find(|&t| mesh.material_ids.get(t).copied().unwrap_or(0) != material)
-                .unwrap_or(mesh.triangles.len());
-            let indices: Vec<u8> = mesh.triangles[start..end]
-                .iter()
-                .flatten()
-                .flat_map(|v| v.to_le_bytes())
-                .collect();
-            let view = push_view(&mut bin, &indices, 34963);
-            accessors.push(json!({"bufferView": view, "componentType": 5125, "count": (end - start) * 3, "type": "SCALAR"}));
-            let mut primitive = json!({"attributes": {"POSITION": position_accessor}, "indices": accessors.len() - 1, "mode": 4});
-            if (material as usize) < scene.materials.len() {
-                primitive["material"] = json!(material);
-            }
-            primitives.push(primitive);
-            start = end;
-        }
-        meshes.push(json!({"name": mesh.name, "primitives": primitives}));
-    }
-    while !bin.len().is_multiple_of(4) {
-        bin.push(0);
-    }
-    let nodes: Vec<_> = scene
-        .instances
-        .iter()
-        .map(|i| {
-            let mut node = json!({});
-            if let Some(mesh) = gltf_mesh[i.mesh] {
-                node["mesh"] = json!(mesh);
-            }
-            if i.transform != Affine3A::IDENTITY {
-                node["matrix"] = json!(Mat4::from(i.transform).to_cols_array());
-            }
-            node
-        })
-        .collect();
-    let materials: Vec<_> = scene
-        .materials
-        .iter()
-        .map(|m| json!({"name": m.name, "alphaMode": if m.alpha_tested { "MASK" } else { "OPAQUE" }}))
-        .collect();
-    let mut buffer = json!({"byteLength": bin.len()});
-    if !binary {
-        let bin_name = path.with_extension("bin");
-        std::fs::write(&bin_name, &bin)?;
-        buffer["uri"] = json!(bin_name
-            .file_name()
-            .and_then(|n| n.to_str())
-            .unwrap_or("buffer.bin"));
-    }
-    let root = json!({
-        "asset": {"version": "2.0", "generator": concat!("rtmesh ", env!("CARGO_PKG_VERSION"))},
-        "scene": 0,
-        "scenes": [{"nodes": (0..nodes.len()).collect::<Vec<_>>()}],
-        "nodes": nodes, "meshes": meshes, "materials": materials,
-        "accessors": accessors, "bufferViews": views, "buffers": [buffer],
-    });
-    let json_bytes = serde_json::to_vec(&root)?;
-    if binary {
-        let mut json_padded = json_bytes;
-        while json_padded.len() % 4 != 0 {
-            json_padded.push(b' ');
-        }
-        let glb = gltf::binary::Glb {
-            header: gltf::binary::Header {
-                magic: *b"glTF",
-                version: 2,
-                length: 0,
-            },
-            json: Cow::Owned(json_padded),
-            bin: Some(Cow::Owned(bin)),
-        };
-        let file = std::io::BufWriter::new(std::fs::File::create(path)?);
-        glb.to_writer(file)
-            .map_err(|e| std::io::Error::other(e.to_string()))?;
-    } else {
-        std::fs::write(path, json_bytes)?;
-    }
-    Ok(collapsed)
 }
