@@ -58,6 +58,27 @@ pub fn print(name: &str, info: &MeshInfo) {
         "  broken triangles   {:>10} non-finite, {} repeated-vertex, {} zero-area",
         info.non_finite_triangles, info.repeated_vertex_triangles, info.zero_area_triangles
     );
+    for a in &info.attributes {
+        println!(
+            "  attribute          {:>10}  {} x {}{}, {} vertices in {} geometries",
+            a.name,
+            a.components,
+            a.component_type,
+            if a.normalized { " (normalized)" } else { "" },
+            a.vertices,
+            a.geometries
+        );
+    }
+    let d = &info.document;
+    if d.nodes + d.skins + d.animations + d.textures + d.images + d.cameras > 0 {
+        println!(
+            "  document           {:>10} nodes, {} skins, {} animations, {} textures, {} images, {} cameras",
+            d.nodes, d.skins, d.animations, d.textures, d.images, d.cameras
+        );
+    }
+    for library in &d.material_libraries {
+        println!("  material library   {library:>10}");
+    }
     if info.strip_degenerates_dropped > 0 {
         println!(
             "  strips             {:>10} degenerate strip triangles (swaps and joins) dropped on reading",

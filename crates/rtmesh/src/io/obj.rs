@@ -173,7 +173,8 @@ fn vertices_of(mesh: &tobj::Mesh) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32
         )
     };
     let colour = |v: usize| -> [f32; 3] { std::array::from_fn(|c| mesh.vertex_color[3 * v + c]) };
-    let has_colour = mesh.vertex_color.len() == mesh.positions.len();
+    let has_colour =
+        !mesh.vertex_color.is_empty() && mesh.vertex_color.len() == mesh.positions.len();
     let uv = (!mesh.texcoord_indices.is_empty()).then_some(&mesh.texcoord_indices);
     let normal = (!mesh.normal_indices.is_empty()).then_some(&mesh.normal_indices);
     let (mut positions, mut uvs, mut normals, mut colours) =

@@ -7,12 +7,14 @@
 //! scanned models ship: lists of vertex indices with −1 between strips) are decoded
 //! with alternating winding, and the strips' degenerate triangles (the swaps and joins
 //! that stitch a generalized strip, naming a vertex twice) are dropped and counted in
-//! [`crate::mesh::ReadNotes`]. The writer emits binary little-endian PLY directly:
-//! the format is a header and two packed arrays, and writing them in bulk is far faster
-//! than going through per-property callbacks.
+//! [`crate::mesh::ReadNotes`]. Every scalar vertex property is kept: `nx ny nz`,
+//! `red green blue [alpha]` and `u v` (or `s t`, `texture_u texture_v`) as the
+//! attributes `NORMAL`, `COLOR_0` and `TEXCOORD_0`, any other as an attribute of its
+//! own name, each in its stored type and with its PLY names, which the writer writes
+//! back. The writer emits binary little-endian PLY.
 
 use super::{CountingReader, MeshError};
-use crate::mesh::{Scene, TriMesh};
+use crate::mesh::{AttributeValues, Scene, TriMesh, VertexAttribute};
 use glam::Vec3;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{
@@ -22,23 +24,61 @@ use ply_rs_bw::ply::{
 use std::io::{BufRead, Write};
 use std::path::Path;
 
+/// One vertex: its position, and every other scalar property in the order of
+/// [`EXTRA_PROPERTIES`], as f64 (exact for every PLY scalar type).
 #[derive(Default)]
-struct Vertex(Vec3);
+struct Vertex {
+    position: Vec3,
+    extra: Vec<f64>,
+}
+
+thread_local! {
+    /// The vertex element's properties other than x, y, z, for [`Vertex`] to find its
+    /// slots by (set before the vertex payload is read; the parser's `new` takes none).
+    static EXTRA_PROPERTIES: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+fn scalar_value(property: &Property) -> Option<f64> {
+    Some(match *property {
+        Property::Char(v) => v.into(),
+        Property::UChar(v) => v.into(),
+        Property::Short(v) => v.into(),
+        Property::UShort(v) => v.into(),
+        Property::Int(v) => v.into(),
+        Property::UInt(v) => v.into(),
+        Property::Float(v) => v.into(),
+        Property::Double(v) => v,
+        _ => return None,
+    })
+}
 
 impl PropertyAccess for Vertex {
     fn new() -> Self {
-        Self::default()
+        Self {
+            position: Vec3::ZERO,
+            extra: vec![0.0; EXTRA_PROPERTIES.with_borrow(Vec::len)],
+        }
     }
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
         let axis = match name {
             "x" => 0,
             "y" => 1,
             "z" => 2,
-            _ => return PropertyAccessResult::Ignored,
+            _ => {
+                let slot =
+                    EXTRA_PROPERTIES.with_borrow(|names| names.iter().position(|n| n == name));
+                return match (slot, scalar_value(&property)) {
+                    (Some(slot), Some(value)) => {
+                        self.extra[slot] = value;
+                        PropertyAccessResult::Set
+                    }
+                    _ => PropertyAccessResult::Ignored,
+                };
+            }
         };
         match property.to_f32_lossy() {
             Some(value) => {
-                self.0[axis] = value;
+                self.position[axis] = value;
                 PropertyAccessResult::Set
             }
             None => PropertyAccessResult::UnsupportedType,
@@ -47,6 +87,88 @@ impl PropertyAccess for Vertex {
     fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
         self.set_property(name, Property::Float(value))
     }
+}
+
+/// Property names read as one attribute: (attribute, its components' PLY names).
+const KNOWN_GROUPS: &[(&str, &[&str])] = &[
+    ("NORMAL", &["nx", "ny", "nz"]),
+    ("COLOR_0", &["red", "green", "blue", "alpha"]),
+    ("COLOR_0", &["red", "green", "blue"]),
+    ("COLOR_0", &["r", "g", "b", "a"]),
+    ("COLOR_0", &["r", "g", "b"]),
+    ("TEXCOORD_0", &["u", "v"]),
+    ("TEXCOORD_0", &["s", "t"]),
+    ("TEXCOORD_0", &["texture_u", "texture_v"]),
+    ("TEXCOORD_0", &["texture_s", "texture_t"]),
+];
+
+/// The vertex element's extra properties as attributes: known groups of one type
+/// (`nx ny nz`, `red green blue [alpha]`, `u v`, ...) as glTF-named streams, every
+/// other scalar property as a stream of its own name; each keeps its PLY names and
+/// type. `values[v]` holds vertex `v`'s extra properties in `names` order.
+fn vertex_attributes(
+    element: &ElementDef,
+    names: &[String],
+    vertices: &[Vertex],
+) -> Vec<VertexAttribute> {
+    let scalar_type = |name: &str| match element.properties.get(name).map(|p| &p.data_type) {
+        Some(PropertyType::Scalar(t)) => Some(t.clone()),
+        _ => None,
+    };
+    let mut taken = vec![false; names.len()];
+    let mut out = Vec::new();
+    let make = |attribute: &str, members: &[usize], taken: &mut Vec<bool>| {
+        let scalar = scalar_type(&names[members[0]]).expect("a scalar property");
+        let data: Vec<f64> = vertices
+            .iter()
+            .flat_map(|v| members.iter().map(|&m| v.extra[m]))
+            .collect();
+        let typed = match scalar {
+            ScalarType::Char => AttributeValues::I8(data.iter().map(|&x| x as i8).collect()),
+            ScalarType::UChar => AttributeValues::U8(data.iter().map(|&x| x as u8).collect()),
+            ScalarType::Short => AttributeValues::I16(data.iter().map(|&x| x as i16).collect()),
+            ScalarType::UShort => AttributeValues::U16(data.iter().map(|&x| x as u16).collect()),
+            ScalarType::Int => AttributeValues::I32(data.iter().map(|&x| x as i32).collect()),
+            ScalarType::UInt => AttributeValues::U32(data.iter().map(|&x| x as u32).collect()),
+            ScalarType::Float => AttributeValues::F32(data.iter().map(|&x| x as f32).collect()),
+            ScalarType::Double => AttributeValues::F64(data),
+        };
+        // Colours stored as integers stand for [0, 1].
+        let normalized =
+            attribute == "COLOR_0" && matches!(scalar, ScalarType::UChar | ScalarType::UShort);
+        for &m in members {
+            taken[m] = true;
+        }
+        VertexAttribute {
+            name: attribute.to_owned(),
+            components: members.len(),
+            normalized,
+            values: typed,
+            component_names: members.iter().map(|&m| names[m].clone()).collect(),
+        }
+    };
+    for (attribute, group) in KNOWN_GROUPS {
+        if out.iter().any(|a: &VertexAttribute| a.name == *attribute) {
+            continue;
+        }
+        let members: Option<Vec<usize>> = group
+            .iter()
+            .map(|g| names.iter().position(|n| n == g))
+            .collect();
+        let Some(members) = members.filter(|m| !m.iter().any(|&i| taken[i])) else {
+            continue;
+        };
+        let types: Vec<_> = members.iter().map(|&m| scalar_type(&names[m])).collect();
+        if types.iter().all(|t| t.is_some() && *t == types[0]) {
+            out.push(make(attribute, &members, &mut taken));
+        }
+    }
+    for i in 0..names.len() {
+        if !taken[i] {
+            out.push(make(&names[i].clone(), &[i], &mut taken));
+        }
+    }
+    out
 }
 
 #[derive(Default)]
@@ -233,15 +355,36 @@ pub(super) fn read<R: BufRead>(
         ));
     }
 
+    if let Some(list) = vertex
+        .properties
+        .values()
+        .find(|p| matches!(p.data_type, PropertyType::List(..)))
+    {
+        return Err(MeshError::invalid(
+            path,
+            format!(
+                "'vertex' property '{}' is a list; rtmesh keeps scalar vertex properties only",
+                list.name
+            ),
+        ));
+    }
+    let extra: Vec<String> = vertex
+        .properties
+        .keys()
+        .filter(|k| !["x", "y", "z"].contains(&k.as_str()))
+        .cloned()
+        .collect();
     let mut mesh = TriMesh::default();
     let mut dropped = 0;
     for element in header.elements.values() {
         match element.name.as_str() {
             "vertex" => {
+                EXTRA_PROPERTIES.with_borrow_mut(|names| names.clone_from(&extra));
                 let vertices = Parser::<Vertex>::new()
                     .read_payload_for_element(&mut reader, element, &header)
                     .map_err(|e| parse_error(&reader, e))?;
-                mesh.positions = vertices.into_iter().map(|v| v.0).collect();
+                mesh.attributes = vertex_attributes(element, &extra, &vertices);
+                mesh.positions = vertices.into_iter().map(|v| v.position).collect();
             }
             "face" => {
                 if !element.properties.keys().any(|k| is_index_list(k)) {
@@ -299,24 +442,102 @@ pub(super) fn read<R: BufRead>(
     let n = mesh.triangles.len();
     mesh.material_ids = vec![0; n];
     mesh.alpha_tested = vec![false; n];
+    mesh.group_ids = vec![0; n];
     let mut scene = Scene::from_mesh(mesh);
     scene.read_notes.strip_degenerates_dropped = dropped;
     Ok(scene)
 }
 
+/// The PLY names of an attribute's components: the source's, or `nx ny nz`,
+/// `red green blue alpha`, `u v` for the known ones, or `name_c` per component.
+fn property_names(attribute: &VertexAttribute) -> Vec<String> {
+    if attribute.component_names.len() == attribute.components {
+        return attribute.component_names.clone();
+    }
+    let known: &[&str] = match attribute.name.as_str() {
+        "NORMAL" => &["nx", "ny", "nz"],
+        "COLOR_0" => &["red", "green", "blue", "alpha"],
+        "TEXCOORD_0" => &["u", "v"],
+        _ => &[],
+    };
+    let base = attribute
+        .name
+        .trim_start_matches('_')
+        .to_ascii_lowercase()
+        .replace(':', "_");
+    (0..attribute.components)
+        .map(|c| match known.get(c) {
+            Some(name) => name.to_string(),
+            None if attribute.components == 1 => base.clone(),
+            None => format!("{base}_{c}"),
+        })
+        .collect()
+}
+
+fn scalar_type(attribute: &VertexAttribute) -> ScalarType {
+    match &attribute.values {
+        AttributeValues::U8(_) => ScalarType::UChar,
+        AttributeValues::I8(_) => ScalarType::Char,
+        AttributeValues::U16(_) => ScalarType::UShort,
+        AttributeValues::I16(_) => ScalarType::Short,
+        AttributeValues::U32(_) => ScalarType::UInt,
+        AttributeValues::I32(_) => ScalarType::Int,
+        AttributeValues::F32(_) => ScalarType::Float,
+        AttributeValues::F64(_) => ScalarType::Double,
+    }
+}
+
+/// Binary little-endian PLY: the header through ply-rs-bw's writer (x, y, z, then
+/// every attribute's components under their PLY names and types), the payload in bulk
+/// in the header's order (per-property callbacks cost several times as much on the
+/// dragon).
 pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
+    use ply_rs_bw::ply::{Addable, Header, PropertyDef};
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
-    write!(
-        out,
-        "ply\nformat binary_little_endian 1.0\ncomment written by rtmesh {}\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nelement face {}\nproperty list uchar uint vertex_indices\nend_header\n",
-        env!("CARGO_PKG_VERSION"),
-        mesh.positions.len(),
-        mesh.triangles.len()
-    )?;
-    for p in &mesh.positions {
-        for c in p.to_array() {
-            out.write_all(&c.to_le_bytes())?;
+    let mut header = Header::new();
+    header.encoding = Encoding::BinaryLittleEndian;
+    header
+        .comments
+        .push(format!("written by rtmesh {}", env!("CARGO_PKG_VERSION")));
+    let mut vertex = ElementDef::new("vertex".into());
+    vertex.count = mesh.positions.len();
+    for axis in ["x", "y", "z"] {
+        vertex.properties.add(PropertyDef::new(
+            axis.into(),
+            PropertyType::Scalar(ScalarType::Float),
+        ));
+    }
+    // Morph-target deltas have no PLY meaning without their targets' weights; they
+    // are kept like any other attribute, under their own names.
+    for attribute in &mesh.attributes {
+        for name in property_names(attribute) {
+            vertex.properties.add(PropertyDef::new(
+                name,
+                PropertyType::Scalar(scalar_type(attribute)),
+            ));
         }
+    }
+    header.elements.add(vertex);
+    let mut face = ElementDef::new("face".into());
+    face.count = mesh.triangles.len();
+    face.properties.add(PropertyDef::new(
+        "vertex_indices".into(),
+        PropertyType::List(ScalarType::UChar, ScalarType::UInt),
+    ));
+    header.elements.add(face);
+    ply_rs_bw::writer::Writer::<DefaultElement>::new()
+        .write_header(&mut out, &header)
+        .map_err(std::io::Error::other)?;
+    let mut row = Vec::with_capacity(64);
+    for (v, p) in mesh.positions.iter().enumerate() {
+        row.clear();
+        for c in p.to_array() {
+            row.extend_from_slice(&c.to_le_bytes());
+        }
+        for attribute in &mesh.attributes {
+            attribute.push_vertex_bytes(v, &mut row);
+        }
+        out.write_all(&row)?;
     }
     for t in &mesh.triangles {
         out.write_all(&[3])?;

@@ -46,6 +46,100 @@ pub struct MeshInfo {
     pub strip_degenerates_dropped: usize,
     /// OBJ `l` and `p` statements ignored on reading (not triangles).
     pub ignored_line_and_point_statements: usize,
+    /// The vertex attributes besides the position, over all geometries.
+    pub attributes: Vec<AttributeSummary>,
+    /// Material names, in order (a reader adds an unnamed default where faces have
+    /// none).
+    pub material_names: Vec<String>,
+    /// What the file held beyond the mesh model (glTF nodes, skins, animations, morph
+    /// targets; OBJ material libraries).
+    pub document: DocumentSummary,
+}
+
+/// One vertex attribute, as `rtmesh info` lists it.
+#[derive(Clone, Debug, Serialize)]
+pub struct AttributeSummary {
+    /// glTF-style name (`NORMAL`, `TEXCOORD_0`, `target0:POSITION`, a PLY property's).
+    pub name: String,
+    /// Values per vertex.
+    pub components: usize,
+    /// Stored component type, as PLY spells it (`float`, `uchar`, ...).
+    pub component_type: &'static str,
+    /// Integers stand for [0, 1] or [−1, 1].
+    pub normalized: bool,
+    /// Geometries that have it.
+    pub geometries: usize,
+    /// Vertices of those geometries.
+    pub vertices: usize,
+}
+
+/// The parts of the source document rtmesh keeps and writes back.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct DocumentSummary {
+    /// glTF nodes.
+    pub nodes: usize,
+    /// glTF skins.
+    pub skins: usize,
+    /// glTF animations.
+    pub animations: usize,
+    /// glTF textures.
+    pub textures: usize,
+    /// glTF images.
+    pub images: usize,
+    /// glTF cameras.
+    pub cameras: usize,
+    /// OBJ `mtllib` references, as written.
+    pub material_libraries: Vec<String>,
+}
+
+impl DocumentSummary {
+    fn of(scene: &Scene) -> Self {
+        match scene.document.as_deref() {
+            Some(crate::io::Document::Gltf(gltf)) => {
+                let root = &gltf.root;
+                Self {
+                    nodes: root.nodes.len(),
+                    skins: root.skins.len(),
+                    animations: root.animations.len(),
+                    textures: root.textures.len(),
+                    images: root.images.len(),
+                    cameras: root.cameras.len(),
+                    material_libraries: Vec::new(),
+                }
+            }
+            Some(crate::io::Document::Obj { material_libraries }) => Self {
+                material_libraries: material_libraries.clone(),
+                ..Self::default()
+            },
+            None => Self::default(),
+        }
+    }
+}
+
+/// The attributes of every geometry of `scene`, by name, in order of first appearance.
+fn attribute_summaries(scene: &Scene) -> Vec<AttributeSummary> {
+    let mut out: Vec<AttributeSummary> = Vec::new();
+    for mesh in &scene.meshes {
+        for attribute in &mesh.attributes {
+            let summary = match out.iter_mut().position(|a| a.name == attribute.name) {
+                Some(i) => &mut out[i],
+                None => {
+                    out.push(AttributeSummary {
+                        name: attribute.name.clone(),
+                        components: attribute.components,
+                        component_type: attribute.type_name(),
+                        normalized: attribute.normalized,
+                        geometries: 0,
+                        vertices: 0,
+                    });
+                    out.last_mut().expect("just pushed")
+                }
+            };
+            summary.geometries += 1;
+            summary.vertices += attribute.vertex_count();
+        }
+    }
+    out
 }
 
 impl MeshInfo {
@@ -75,6 +169,9 @@ impl MeshInfo {
             strip_degenerates_dropped: scene.read_notes.strip_degenerates_dropped,
             ignored_line_and_point_statements: scene.read_notes.ignored_lines
                 + scene.read_notes.ignored_points,
+            attributes: attribute_summaries(scene),
+            material_names: scene.materials.iter().map(|m| m.name.clone()).collect(),
+            document: DocumentSummary::of(scene),
         }
     }
 }

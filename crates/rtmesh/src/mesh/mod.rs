@@ -20,7 +20,7 @@ pub(crate) use adjacency::{has_edges, part_cursors, triangle_part_len, HalfEdgeR
 pub(crate) use attributes::gather_all;
 pub use attributes::{morph_name, AttributeValues, Semantic, VertexAttribute, MORPH_PREFIX};
 pub use duplicates::{duplicates, Duplicates};
-pub use info::MeshInfo;
+pub use info::{AttributeSummary, DocumentSummary, MeshInfo};
 pub use validate::{validate, Validation};
 pub use weld::{weld, weld_exact, WeldResult};
 

@@ -213,6 +213,14 @@ pub struct PairReport {
 /// (pairs first, as consecutive triangles, then the unpaired ones), its vertices and
 /// attributes as they were. The report sums the geometries.
 pub fn pair_scene(scene: &mut crate::Scene, settings: &PairSettings) -> PairReport {
+    pair_scene_mapped(scene, settings).0
+}
+
+/// [`pair_scene`], also returning per geometry the input id of every output triangle.
+pub fn pair_scene_mapped(
+    scene: &mut crate::Scene,
+    settings: &PairSettings,
+) -> (PairReport, Vec<Vec<u32>>) {
     let mut total = PairReport {
         triangles: 0,
         paired_triangles: 0,
@@ -221,17 +229,20 @@ pub fn pair_scene(scene: &mut crate::Scene, settings: &PairSettings) -> PairRepo
         seconds: 0.0,
         prescan_skipped: !scene.meshes.is_empty(),
     };
+    let mut maps = Vec::with_capacity(scene.meshes.len());
     for mesh in &mut scene.meshes {
         let topology = mesh.topology();
         let (pairing, report) = pair(&topology, settings);
-        *mesh = reorder(mesh, &topology, &pairing).mesh;
+        let paired = reorder(mesh, &topology, &pairing);
+        *mesh = paired.mesh;
+        maps.push(paired.input_triangle);
         total.triangles += report.triangles;
         total.paired_triangles += report.paired_triangles;
         total.seconds += report.seconds;
         total.prescan_skipped &= report.prescan_skipped;
     }
     total.pair_ratio = total.paired_triangles as f64 / total.triangles.max(1) as f64;
-    total
+    (total, maps)
 }
 
 /// Pair the triangles of `mesh` (by vertex index: weld first to join split vertices,

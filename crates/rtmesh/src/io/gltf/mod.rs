@@ -210,10 +210,12 @@ pub(super) fn read<R: BufRead>(
             .map(|mesh| Instance::new(mesh, Affine3A::IDENTITY))
             .collect();
     }
-    scene.document = Some(std::sync::Arc::new(super::Document::Gltf(Box::new(GltfDocument {
-        root: document.into_json(),
-        buffers: buffers.into_iter().map(|b| b.0).collect(),
-    }))));
+    scene.document = Some(std::sync::Arc::new(super::Document::Gltf(Box::new(
+        GltfDocument {
+            root: document.into_json(),
+            buffers: buffers.into_iter().map(|b| b.0).collect(),
+        },
+    ))));
     Ok(scene)
 }
 
@@ -226,6 +228,16 @@ pub struct GltfDocument {
 }
 
 impl GltfDocument {
+    /// The JSON document as read.
+    pub fn root(&self) -> &gltf::json::Root {
+        &self.root
+    }
+
+    /// The data of each buffer.
+    pub fn buffers(&self) -> &[Vec<u8>] {
+        &self.buffers
+    }
+
     /// The (mesh, primitive) of every group, in the reader's numbering.
     pub(crate) fn group_sources(&self) -> Vec<(usize, usize)> {
         self.root

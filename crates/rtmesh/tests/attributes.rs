@@ -1,0 +1,524 @@
+//! Nothing lost: through the map from output to input triangles, every output corner
+//! has the position and attribute values of its input corner, bit for bit, after
+//! `convert` (write and read back), pairing, repair, and the glTF document's other
+//! parts come out equal. Real files from `RTMESH_DATA` (skipped without it, unless
+//! `RTMESH_REQUIRE_DATA=1`), hand-built meshes, and property-test meshes.
+
+use glam::Vec3;
+use proptest::prelude::*;
+use rtmesh::data::mesh_data_dir;
+use rtmesh::io::{read, write, Document};
+use rtmesh::mesh::VertexAttribute;
+use rtmesh::pair::{pair_scene_mapped, PairSettings};
+use rtmesh::repair::{repair, RepairSettings};
+use rtmesh::{Scene, TriMesh};
+use std::path::{Path, PathBuf};
+
+/// A corner as bits: the position, then every attribute's values by name.
+type Corner = ([u32; 3], Vec<(String, Vec<u64>)>);
+
+fn corner(mesh: &TriMesh, v: u32) -> Corner {
+    let p = mesh.positions[v as usize];
+    let mut attributes: Vec<(String, Vec<u64>)> = mesh
+        .attributes
+        .iter()
+        .map(|a| {
+            let values = a.vertex(v as usize).iter().map(|x| x.to_bits()).collect();
+            (a.name.clone(), values)
+        })
+        .collect();
+    attributes.sort();
+    (p.to_array().map(f32::to_bits), attributes)
+}
+
+/// Triangle `t` of `out` has the corners of triangle `u` of `input`, in the same
+/// winding (possibly rotated, as pairing does).
+fn same_corners(out: &TriMesh, t: usize, input: &TriMesh, u: usize) -> bool {
+    let o = out.triangles[t].map(|v| corner(out, v));
+    let i = input.triangles[u].map(|v| corner(input, v));
+    (0..3).any(|r| (0..3).all(|k| o[k] == i[(k + r) % 3]))
+}
+
+/// Every triangle of `out` (flattened) has the corners of the same-numbered triangle
+/// of `input` (flattened): what a writer that keeps order must give.
+fn assert_same_flat(out: &Scene, input: &Scene, what: &str) {
+    let (o, i) = (out.flatten(), input.flatten());
+    assert_eq!(o.triangle_count(), i.triangle_count(), "{what}: triangles");
+    let mut names: Vec<&str> = o.attributes.iter().map(|a| a.name.as_str()).collect();
+    let mut theirs: Vec<&str> = i.attributes.iter().map(|a| a.name.as_str()).collect();
+    names.sort();
+    theirs.sort();
+    assert_eq!(names, theirs, "{what}: attribute names");
+    let bad = (0..o.triangle_count())
+        .filter(|&t| !same_corners(&o, t, &i, t))
+        .count();
+    assert_eq!(bad, 0, "{what}: triangles whose corners differ");
+}
+
+fn temp_dir() -> PathBuf {
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("rtmesh-attributes-{}-{call}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Write `scene` as `name` into a fresh folder and read it back; with glTF, which asks
+/// for unit normals, also `scene` with its normals as the writer normalizes them (the
+/// oracle: those more than 1e-4 from unit length, renormalized).
+fn written(scene: &Scene, name: &str) -> Scene {
+    let path = temp_dir().join(name);
+    write(scene, &path).unwrap_or_else(|e| panic!("{e}"));
+    read(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn with_unit_normals(scene: &Scene) -> Scene {
+    let mut out = scene.clone();
+    for mesh in &mut out.meshes {
+        for attribute in mesh.attributes.iter_mut().filter(|a| a.name == "NORMAL") {
+            if let rtmesh::mesh::AttributeValues::F32(values) = &mut attribute.values {
+                for n in values.chunks_exact_mut(3) {
+                    let v = Vec3::from_slice(n);
+                    if !v.is_finite() || (v.length() - 1.0).abs() > 1e-4 {
+                        let fixed = Vec3::from_slice(n).try_normalize().unwrap_or(Vec3::Z);
+                        n.copy_from_slice(&fixed.to_array());
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+/// Pairing keeps every triangle once and every corner, in every geometry.
+fn assert_pairing_keeps_corners(scene: &Scene, what: &str) -> Scene {
+    let mut paired = scene.clone();
+    let (_, maps) = pair_scene_mapped(&mut paired, &PairSettings::default());
+    for (m, map) in maps.iter().enumerate() {
+        let mut sorted = map.clone();
+        sorted.sort_unstable();
+        assert!(
+            sorted.iter().copied().eq(0..map.len() as u32),
+            "{what}: mesh {m} is a permutation"
+        );
+        let (out, input) = (&paired.meshes[m], &scene.meshes[m]);
+        let bad = (0..map.len())
+            .filter(|&t| !same_corners(out, t, input, map[t] as usize))
+            .count();
+        assert_eq!(
+            bad, 0,
+            "{what}: paired triangles of mesh {m} whose corners differ"
+        );
+    }
+    paired
+}
+
+/// Default repair keeps every kept triangle's corners.
+fn assert_repair_keeps_corners(scene: &Scene, what: &str) -> Scene {
+    let (out, map, _) = repair(scene, &RepairSettings::default());
+    for (g, mesh) in out.meshes.iter().enumerate() {
+        for t in 0..mesh.triangle_count() {
+            let input = &scene.meshes[map.input_geometry[g][t] as usize];
+            assert!(
+                same_corners(mesh, t, input, map.input_triangle[g][t] as usize),
+                "{what}: repaired geometry {g} triangle {t}"
+            );
+        }
+    }
+    out
+}
+
+/// The whole chain on one file: convert to each format, pair, repair, and the
+/// written forms of the paired and repaired scenes.
+fn check_file(path: &Path, formats: &[&str]) -> Scene {
+    let what = path.display().to_string();
+    let scene = read(path).unwrap_or_else(|e| panic!("{e}"));
+    assert!(
+        !scene.meshes.iter().all(|m| m.attributes.is_empty()),
+        "{what} has attributes"
+    );
+    for format in formats {
+        let back = written(&scene, &format!("convert.{format}"));
+        let expected = if format.starts_with("gl") {
+            with_unit_normals(&scene)
+        } else {
+            scene.clone()
+        };
+        assert_same_flat(&back, &expected, &format!("{what} -> {format}"));
+    }
+    let paired = assert_pairing_keeps_corners(&scene, &what);
+    let repaired = assert_repair_keeps_corners(&scene, &what);
+    for format in formats {
+        let unit = |s: &Scene| {
+            if format.starts_with("gl") {
+                with_unit_normals(s)
+            } else {
+                s.clone()
+            }
+        };
+        let back = written(&paired, &format!("pair.{format}"));
+        assert_same_flat(&back, &unit(&paired), &format!("{what} paired -> {format}"));
+        let back = written(&repaired, &format!("repair.{format}"));
+        assert_same_flat(
+            &back,
+            &unit(&repaired),
+            &format!("{what} repaired -> {format}"),
+        );
+    }
+    scene
+}
+
+#[test]
+fn spot_keeps_its_uvs() {
+    let Some(dir) = mesh_data_dir() else { return };
+    let scene = check_file(&dir.join("spot.obj"), &["obj", "glb", "ply"]);
+    assert!(scene.meshes[0].attribute("TEXCOORD_0").is_some());
+}
+
+#[test]
+fn sponza_keeps_uvs_normals_and_groups() {
+    let Some(dir) = mesh_data_dir() else { return };
+    let scene = check_file(&dir.join("sponza_dabrovic.obj"), &["obj", "gltf"]);
+    let back = written(&scene, "groups.obj");
+    let names = |s: &Scene| s.meshes.iter().map(|m| m.name.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&back), names(&scene));
+}
+
+/// The JSON of `part` of a glTF document.
+fn json_of<T: serde::Serialize>(part: &T) -> serde_json::Value {
+    serde_json::to_value(part).unwrap()
+}
+
+/// The bytes of accessor `index`'s elements, tightly packed.
+fn accessor_data(document: &rtmesh::io::GltfDocument, index: usize) -> Vec<u8> {
+    let root = document.root();
+    let accessor = &root.accessors[index];
+    let view = &root.buffer_views[accessor.buffer_view.unwrap().value()];
+    let component = match accessor.component_type.as_ref().unwrap().0 {
+        gltf::json::accessor::ComponentType::I8 | gltf::json::accessor::ComponentType::U8 => 1,
+        gltf::json::accessor::ComponentType::I16 | gltf::json::accessor::ComponentType::U16 => 2,
+        _ => 4,
+    };
+    let element = component * accessor.type_.as_ref().unwrap().multiplicity();
+    let stride = view.byte_stride.map_or(element, |s| s.0);
+    let start = view.byte_offset.map_or(0, |o| o.0) as usize
+        + accessor.byte_offset.map_or(0, |o| o.0) as usize;
+    let data = &document.buffers()[view.buffer.value()];
+    (0..accessor.count.0 as usize)
+        .flat_map(|i| {
+            data[start + i * stride..start + i * stride + element]
+                .iter()
+                .copied()
+        })
+        .collect()
+}
+
+fn document(scene: &Scene) -> &rtmesh::io::GltfDocument {
+    match scene.document.as_deref() {
+        Some(Document::Gltf(document)) => document,
+        _ => panic!("a glTF document"),
+    }
+}
+
+/// Materials, nodes, skins and animations equal, resolved through their accessors.
+fn assert_document_parts_equal(out: &Scene, input: &Scene, what: &str) {
+    let (a, b) = (document(out), document(input));
+    let (ra, rb) = (a.root(), b.root());
+    assert_eq!(
+        json_of(&ra.materials),
+        json_of(&rb.materials),
+        "{what}: materials"
+    );
+    assert_eq!(json_of(&ra.nodes), json_of(&rb.nodes), "{what}: nodes");
+    assert_eq!(
+        json_of(&ra.textures),
+        json_of(&rb.textures),
+        "{what}: textures"
+    );
+    assert_eq!(
+        json_of(&ra.samplers),
+        json_of(&rb.samplers),
+        "{what}: samplers"
+    );
+    assert_eq!(ra.skins.len(), rb.skins.len(), "{what}: skins");
+    for (sa, sb) in ra.skins.iter().zip(&rb.skins) {
+        assert_eq!(
+            json_of(&sa.joints),
+            json_of(&sb.joints),
+            "{what}: skin joints"
+        );
+        assert_eq!(sa.skeleton, sb.skeleton, "{what}: skin skeleton");
+        let matrices =
+            |d, s: &gltf::json::Skin| s.inverse_bind_matrices.map(|i| accessor_data(d, i.value()));
+        assert_eq!(
+            matrices(a, sa),
+            matrices(b, sb),
+            "{what}: inverse bind matrices"
+        );
+    }
+    assert_eq!(
+        ra.animations.len(),
+        rb.animations.len(),
+        "{what}: animations"
+    );
+    for (aa, ab) in ra.animations.iter().zip(&rb.animations) {
+        assert_eq!(
+            json_of(&aa.channels),
+            json_of(&ab.channels),
+            "{what}: channels"
+        );
+        assert_eq!(aa.samplers.len(), ab.samplers.len());
+        for (sa, sb) in aa.samplers.iter().zip(&ab.samplers) {
+            assert_eq!(
+                accessor_data(a, sa.input.value()),
+                accessor_data(b, sb.input.value()),
+                "{what}: sampler input"
+            );
+            assert_eq!(
+                accessor_data(a, sa.output.value()),
+                accessor_data(b, sb.output.value()),
+                "{what}: sampler output"
+            );
+        }
+    }
+    for (ia, ib) in ra.images.iter().zip(&rb.images) {
+        let bytes = |d: &rtmesh::io::GltfDocument, i: &gltf::json::Image| {
+            i.buffer_view.map(|v| {
+                let view = &d.root().buffer_views[v.value()];
+                let start = view.byte_offset.map_or(0, |o| o.0) as usize;
+                d.buffers()[view.buffer.value()][start..start + view.byte_length.0 as usize]
+                    .to_vec()
+            })
+        };
+        assert_eq!(bytes(a, ia), bytes(b, ib), "{what}: image data");
+        assert_eq!(ia.uri, ib.uri, "{what}: image uri");
+    }
+}
+
+#[test]
+fn engine_keeps_normals_meshes_and_instances() {
+    let Some(dir) = mesh_data_dir() else { return };
+    let path = dir.join("2CylinderEngine.glb");
+    let scene = check_file(&path, &["glb", "gltf"]);
+    assert_eq!(scene.meshes.len(), 29);
+    assert!(scene.meshes.iter().all(|m| m.attribute("NORMAL").is_some()));
+    let back = written(&scene, "engine.glb");
+    assert_document_parts_equal(&back, &scene, "2CylinderEngine");
+    assert_eq!(back.instances.len(), scene.instances.len());
+}
+
+#[test]
+fn skinned_models_keep_joints_weights_and_animations() {
+    let Some(dir) = mesh_data_dir() else { return };
+    let animated = dir.join("animated");
+    let mut checked = 0;
+    for entry in std::fs::read_dir(&animated).expect("animated/") {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "glb") {
+            continue;
+        }
+        let scene = read(&path).unwrap();
+        let what = path.display().to_string();
+        assert!(
+            scene
+                .meshes
+                .iter()
+                .any(|m| m.attribute("JOINTS_0").is_some() && m.attribute("WEIGHTS_0").is_some()),
+            "{what}: joints and weights"
+        );
+        // Files from other tools may carry weights that do not sum to one, which the
+        // writer must normalize (counted); compare those that do.
+        let out = temp_dir().join("skinned.glb");
+        let notes = write(&scene, &out).unwrap();
+        let back = read(&out).unwrap();
+        assert_document_parts_equal(&back, &scene, &what);
+        if notes.weights_renormalized == 0 {
+            assert_same_flat(&back, &scene, &what);
+        }
+        let paired = assert_pairing_keeps_corners(&scene, &what);
+        let back = written(&paired, "skinned-paired.glb");
+        assert_document_parts_equal(&back, &scene, &what);
+        checked += 1;
+    }
+    assert!(checked >= 6, "{checked} skinned models");
+}
+
+/// A sliver plane with linear UVs in two charts that meet at a seam (x = 5), and a
+/// normal per vertex: bisection's new vertices must lie on the charts' linear maps.
+fn seamed_slivers() -> (TriMesh, [fn(Vec3) -> [f32; 2]; 2]) {
+    fn left(p: Vec3) -> [f32; 2] {
+        [0.1 * p.x + 0.3 * p.y, 0.7 * p.x - 0.2 * p.y]
+    }
+    fn right(p: Vec3) -> [f32; 2] {
+        [0.5 - 0.05 * p.x, 0.25 * p.y + 0.01 * p.x]
+    }
+    let mut positions = Vec::new();
+    let mut uvs = Vec::new();
+    let mut triangles = Vec::new();
+    // Each chart: a strip of quads 5 long and 0.2 high, split into slivers.
+    for (chart, map) in [left as fn(Vec3) -> [f32; 2], right]
+        .into_iter()
+        .enumerate()
+    {
+        let x0 = 5.0 * chart as f32;
+        let base = positions.len() as u32;
+        for row in 0..=4 {
+            for col in 0..=1 {
+                // Sheared, so that the slivers lie diagonal and their boxes are empty.
+                let x = x0 + 5.0 * col as f32;
+                let p = Vec3::new(x, 0.2 * row as f32 + 0.5 * x, 0.0);
+                positions.push(p);
+                uvs.push(map(p));
+            }
+        }
+        for row in 0..4u32 {
+            let v = base + 2 * row;
+            triangles.push([v, v + 1, v + 3]);
+            triangles.push([v, v + 3, v + 2]);
+        }
+    }
+    let mut mesh = TriMesh::new(positions, triangles);
+    let normals = vec![[0.0, 0.0, 1.0]; mesh.positions.len()];
+    mesh.attributes
+        .push(VertexAttribute::from_f32("TEXCOORD_0", &uvs));
+    mesh.attributes
+        .push(VertexAttribute::from_f32("NORMAL", &normals));
+    (mesh, [left, right])
+}
+
+#[test]
+fn bisection_interpolates_on_each_side_of_a_seam() {
+    let (mesh, maps) = seamed_slivers();
+    let scene = Scene::from_mesh(mesh.clone());
+    let settings = RepairSettings {
+        split_elongated: true,
+        force_split: true,
+        ..RepairSettings::default()
+    };
+    let (out, map, report) = repair(&scene, &settings);
+    assert!(report.split_edges > 0, "the slivers split");
+    let out_mesh = &out.meshes[0];
+    assert!(out_mesh.triangle_count() > mesh.triangle_count());
+    let uv = out_mesh.attribute("TEXCOORD_0").unwrap();
+    let normal = out_mesh.attribute("NORMAL").unwrap();
+    for t in 0..out_mesh.triangle_count() {
+        let chart = (map.input_triangle[0][t] as usize) / 8;
+        for v in out_mesh.triangles[t] {
+            let p = out_mesh.positions[v as usize];
+            let expected = maps[chart](p);
+            for c in 0..2 {
+                let got = uv.get(v as usize, c) as f32;
+                assert!(
+                    (got - expected[c]).abs() < 1e-5,
+                    "triangle {t} corner at {p}: uv {got} vs {}",
+                    expected[c]
+                );
+            }
+            assert_eq!(normal.vertex(v as usize), vec![0.0, 0.0, 1.0]);
+        }
+    }
+    // The seam's two sides kept apart: a vertex on x = 5 of each chart.
+    let on_seam = (0..out_mesh.positions.len())
+        .filter(|&v| out_mesh.positions[v].x == 5.0)
+        .count();
+    let seam_positions = {
+        let mut ys: Vec<u32> = (0..out_mesh.positions.len())
+            .filter(|&v| out_mesh.positions[v].x == 5.0)
+            .map(|v| out_mesh.positions[v].y.to_bits())
+            .collect();
+        ys.sort_unstable();
+        ys.dedup();
+        ys.len()
+    };
+    assert_eq!(
+        on_seam,
+        2 * seam_positions,
+        "each seam position twice, once per chart"
+    );
+    // And it survives the writers.
+    for format in ["glb", "ply", "obj"] {
+        let back = written(&out, &format!("split.{format}"));
+        assert_same_flat(&back, &out, format);
+    }
+}
+
+/// A grid with random UVs and colours, and a seam: its left and right halves do not
+/// share vertices along the middle column, and the two copies differ in UV.
+fn random_seamed_grid(n: usize, uv_seed: &[f32], colours: &[u8]) -> TriMesh {
+    let side = n + 1;
+    let mut positions = Vec::new();
+    for y in 0..side {
+        for x in 0..side {
+            positions.push(Vec3::new(
+                x as f32,
+                y as f32,
+                ((x * 7 + y * 3) % 5) as f32 * 0.1,
+            ));
+        }
+    }
+    let copies: Vec<u32> = (0..side)
+        .map(|y| {
+            positions.push(positions[y * side + n / 2]);
+            (positions.len() - 1) as u32
+        })
+        .collect();
+    let mut triangles = Vec::new();
+    for y in 0..n {
+        for x in 0..n {
+            // Quads right of the middle column use its copies.
+            let right = x >= n / 2;
+            let at = |cx: usize, cy: usize| {
+                if right && cx == n / 2 {
+                    copies[cy]
+                } else {
+                    (cy * side + cx) as u32
+                }
+            };
+            let (a, b, c, d) = (at(x, y), at(x + 1, y), at(x + 1, y + 1), at(x, y + 1));
+            triangles.push([a, b, c]);
+            triangles.push([a, c, d]);
+        }
+    }
+    let count = positions.len();
+    let mut mesh = TriMesh::new(positions, triangles);
+    let uvs: Vec<[f32; 2]> = (0..count)
+        .map(|v| [uv_seed[v % uv_seed.len()], v as f32 * 0.5])
+        .collect();
+    mesh.attributes
+        .push(VertexAttribute::from_f32("TEXCOORD_0", &uvs));
+    mesh.attributes.push(VertexAttribute {
+        name: "COLOR_0".into(),
+        components: 4,
+        normalized: true,
+        values: rtmesh::mesh::AttributeValues::U8(
+            (0..count * 4).map(|i| colours[i % colours.len()]).collect(),
+        ),
+        component_names: Vec::new(),
+    });
+    mesh
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+    #[test]
+    fn random_meshes_keep_every_corner(
+        n in 2usize..7,
+        uv_seed in prop::collection::vec(-4.0f32..4.0, 1..9),
+        colours in prop::collection::vec(any::<u8>(), 1..9),
+    ) {
+        let scene = Scene::from_mesh(random_seamed_grid(n, &uv_seed, &colours));
+        for format in ["glb", "ply"] {
+            let back = written(&scene, &format!("random.{format}"));
+            assert_same_flat(&back, &scene, format);
+        }
+        let paired = assert_pairing_keeps_corners(&scene, "random grid");
+        // Pairs cross the seam: the topology is by position.
+        let topology_pairs = rtmesh::pair::pair(&scene.meshes[0].topology(), &PairSettings::default()).1.paired_triangles;
+        let mut welded_only = scene.meshes[0].clone();
+        welded_only.attributes.clear();
+        prop_assert_eq!(topology_pairs, rtmesh::pair::pair(&welded_only.topology(), &PairSettings::default()).1.paired_triangles);
+        let back = written(&paired, "random-paired.glb");
+        assert_same_flat(&back, &paired, "paired glb");
+        assert_repair_keeps_corners(&scene, "random grid");
+    }
+}
