@@ -24,6 +24,10 @@ run convert "$data/sponza_dabrovic.obj" "$out/sponza.gltf"
 run pair "$data/spot.obj" -o "$out/spot-paired.glb"
 for model in "$data"/animated/*.gl*; do
   name="$(basename "${model%.*}")"
-  run convert "$model" "$out/animated-$name.glb"
-  run pair "$model" -o "$out/animated-$name-paired.gltf"
+  run convert "$model" "$out/animated-$name.glb" 2> /dev/null
+  run pair "$model" -o "$out/animated-$name-paired.gltf" 2> /dev/null
+  run repair "$model" --split-elongated --force-split -o "$out/animated-$name-split.glb" --size 0x0 2> /dev/null
 done
+run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
+run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
+run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0

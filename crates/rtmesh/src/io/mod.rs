@@ -2,7 +2,8 @@
 //!
 //! Every reader returns a [`MeshError`] on bad input, never panics, and names the file
 //! and, where the format has lines, the line (OBJ, ascii PLY) or else the byte offset or
-//! element. Writers keep triangle order exactly, so optimizers can rely on it.
+//! element. Writers keep triangle order exactly, so optimizers can rely on it (glTF
+//! within each primitive: one per group and material, see `gltf/write.rs`).
 //!
 //! Repairs done while reading, and documented here: polygons are fan-triangulated
 //! (`v0, vi, vi+1`); OBJ vertices are renumbered in order of first use per geometry

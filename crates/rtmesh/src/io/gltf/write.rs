@@ -2,8 +2,8 @@
 //! document ([`GltfDocument`]): the output starts from it, so materials, textures,
 //! images, samplers, cameras, nodes with their names, skins, animations, extras and
 //! extensions come out equal. Only the triangle primitives are rewritten from the
-//! scene's geometries (one primitive per run of triangles of one group and material,
-//! each taking the source primitive's material, extras, extensions and its own set of
+//! scene's geometries (one primitive per group and material, its triangles in mesh
+//! order, each taking the source primitive's material, extras, extensions and its own set of
 //! attributes and morph targets); accessors and buffer views only those primitives
 //! used are dropped, every other one is copied and renumbered, and all data goes to one
 //! buffer. A scene from another format gets a fresh document: one node per instance,
@@ -589,17 +589,14 @@ pub(in crate::io) fn write(
         };
         let mut streams = Streams::new(&mesh);
         let mut primitives = Vec::new();
-        let mut start = 0;
-        while start < mesh.triangles.len() {
+        for triangles in primitive_triangles(&mesh) {
+            let start = triangles[0] as usize;
             let key = |t: usize| {
                 (
                     mesh.group_of(t),
                     mesh.material_ids.get(t).copied().unwrap_or(0),
                 )
             };
-            let end = (start..mesh.triangles.len())
-                .find(|&t| key(t) != key(start))
-                .unwrap_or(mesh.triangles.len());
             let template = source
                 .zip(from_group(start))
                 .map(|(d, (m, p))| &d.root.meshes[m].primitives[p]);
@@ -659,11 +656,13 @@ pub(in crate::io) fn write(
             }
             primitive.indices = Some(indices(
                 &mut out,
-                &mesh.triangles[start..end],
+                &triangles
+                    .iter()
+                    .map(|&t| mesh.triangles[t as usize])
+                    .collect::<Vec<_>>(),
                 mesh.positions.len(),
             ));
             primitives.push(primitive);
-            start = end;
         }
         notes.normals_renormalized += streams.changed;
         if let (Some(document), Some(m)) = (source, source_mesh) {
@@ -748,6 +747,27 @@ pub(in crate::io) fn write(
         std::fs::write(path, json_bytes)?;
     }
     Ok(notes)
+}
+
+/// The triangles of each output primitive: one per (group, material), in order of
+/// first appearance, each listing its triangles in mesh order. (One per run would keep
+/// the order across primitives too, but after bisection or pairing the runs are
+/// short, and thousands of primitives over one vertex buffer are thousands of draws.)
+fn primitive_triangles(mesh: &TriMesh) -> Vec<Vec<u32>> {
+    let mut index: std::collections::HashMap<(u32, u32), usize> = Default::default();
+    let mut out: Vec<Vec<u32>> = Vec::new();
+    for t in 0..mesh.triangle_count() {
+        let key = (
+            mesh.group_of(t),
+            mesh.material_ids.get(t).copied().unwrap_or(0),
+        );
+        let i = *index.entry(key).or_insert_with(|| {
+            out.push(Vec::new());
+            out.len() - 1
+        });
+        out[i].push(t as u32);
+    }
+    out
 }
 
 /// An index accessor for `triangles` (u16 when the vertices allow, else u32).
