@@ -366,7 +366,10 @@ fn skinned_models_keep_joints_weights_and_animations() {
 
 /// A sliver plane with linear UVs in two charts that meet at a seam (x = 5), and a
 /// normal per vertex: bisection's new vertices must lie on the charts' linear maps.
-fn seamed_slivers() -> (TriMesh, [fn(Vec3) -> [f32; 2]; 2]) {
+/// A linear map from positions to UVs.
+type Chart = fn(Vec3) -> [f32; 2];
+
+fn seamed_slivers() -> (TriMesh, [Chart; 2]) {
     fn left(p: Vec3) -> [f32; 2] {
         [0.1 * p.x + 0.3 * p.y, 0.7 * p.x - 0.2 * p.y]
     }

@@ -303,6 +303,7 @@ pub(crate) struct CountingReader<'p, R> {
     consumed: u64,
     lines: usize,
     in_line: bool,
+    count_lines: bool,
     last_report: u64,
     progress: Progress<'p>,
 }
@@ -315,6 +316,7 @@ impl<'p, R: BufRead> CountingReader<'p, R> {
             consumed: 0,
             lines: 0,
             in_line: false,
+            count_lines: true,
             last_report: 0,
             progress,
         }
@@ -323,6 +325,11 @@ impl<'p, R: BufRead> CountingReader<'p, R> {
     /// 1-based number of the line being read (or last read).
     pub(crate) fn line(&self) -> usize {
         self.lines + usize::from(self.in_line)
+    }
+
+    /// Stop counting lines (a binary payload has none): consuming gets cheaper.
+    pub(crate) fn stop_counting_lines(&mut self) {
+        self.count_lines = false;
     }
 
     /// Bytes consumed so far.
@@ -347,12 +354,13 @@ impl<R: BufRead> BufRead for CountingReader<'_, R> {
     }
 
     fn consume(&mut self, amount: usize) {
-        if let Ok(buffer) = self.inner.fill_buf() {
-            let taken = &buffer[..amount.min(buffer.len())];
-            let newlines = taken.iter().filter(|&&b| b == b'\n').count();
-            self.lines += newlines;
-            if let Some(&last) = taken.last() {
-                self.in_line = last != b'\n';
+        if self.count_lines {
+            if let Ok(buffer) = self.inner.fill_buf() {
+                let taken = &buffer[..amount.min(buffer.len())];
+                self.lines += taken.iter().filter(|&&b| b == b'\n').count();
+                if let Some(&last) = taken.last() {
+                    self.in_line = last != b'\n';
+                }
             }
         }
         self.inner.consume(amount);

@@ -338,6 +338,33 @@ fn nth_face_line(text: &[u8], n: usize) -> usize {
         .map_or(0, |(i, _)| i + 1)
 }
 
+/// Write a `keyword` line for each distinct value of `values` (by bits), in order of
+/// first use; returns the 1-based index (from `base`) of every vertex's value, and how
+/// many lines were written.
+fn write_distinct<const N: usize>(
+    out: &mut impl Write,
+    keyword: &str,
+    values: &[[f32; N]],
+    base: usize,
+) -> std::io::Result<(Vec<usize>, usize)> {
+    let mut index: HashMap<[u32; N], usize> = HashMap::with_capacity(values.len());
+    let mut of_vertex = Vec::with_capacity(values.len());
+    for value in values {
+        let next = index.len();
+        let i = *index.entry(value.map(f32::to_bits)).or_insert(next);
+        if i == next {
+            write!(out, "{keyword}")?;
+            for x in value {
+                // `{}` prints the shortest decimal that reads back to the same f32.
+                write!(out, " {x}")?;
+            }
+            writeln!(out)?;
+        }
+        of_vertex.push(base + i);
+    }
+    Ok((of_vertex, index.len()))
+}
+
 pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
     writeln!(out, "# written by rtmesh {}", env!("CARGO_PKG_VERSION"))?;
@@ -346,7 +373,7 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
             writeln!(out, "mtllib {library}")?;
         }
     }
-    let mut base = 1usize;
+    let (mut position_base, mut uv_base, mut normal_base) = (1usize, 1usize, 1usize);
     for (i, instance) in scene.instances.iter().enumerate() {
         let mesh = &scene.meshes[instance.mesh];
         let name = if mesh.name.is_empty() {
@@ -355,35 +382,49 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
             mesh.name.replace(char::is_whitespace, "_")
         };
         writeln!(out, "o {name}")?;
+        // OBJ indexes positions, texture coordinates and normals apart: each distinct
+        // value is written once per geometry, as files come (seams cost an index, not
+        // a line), and each vertex names its three.
         let colour = mesh.attribute("COLOR_0");
-        for (v, p) in mesh.positions.iter().enumerate() {
-            // `{}` prints the shortest decimal that reads back to the same f32.
-            let p = instance.transform.transform_point3(*p);
-            write!(out, "v {} {} {}", p.x, p.y, p.z)?;
-            if let Some(colour) = colour {
-                for c in 0..colour.components.min(3) {
-                    write!(out, " {}", colour.get(v, c) as f32)?;
-                }
+        let place = |p: &Vec3| instance.transform.transform_point3(*p).to_array();
+        let position = match colour {
+            Some(colour) => {
+                let coloured: Vec<[f32; 6]> = (mesh.positions.iter().enumerate())
+                    .map(|(v, p)| {
+                        let [x, y, z] = place(p);
+                        let c = |k: usize| colour.get(v, k.min(colour.components - 1)) as f32;
+                        [x, y, z, c(0), c(1), c(2)]
+                    })
+                    .collect();
+                write_distinct(&mut out, "v", &coloured, position_base)?
             }
-            writeln!(out)?;
-        }
-        let uv = mesh.attribute("TEXCOORD_0");
-        if let Some(uv) = uv {
-            for v in 0..mesh.positions.len() {
-                writeln!(out, "vt {} {}", uv.get(v, 0) as f32, uv.get(v, 1) as f32)?;
+            None => {
+                let placed: Vec<[f32; 3]> = mesh.positions.iter().map(place).collect();
+                write_distinct(&mut out, "v", &placed, position_base)?
             }
-        }
+        };
+        let uv = mesh.attribute("TEXCOORD_0").map(|uv| {
+            let values: Vec<[f32; 2]> = (0..mesh.positions.len())
+                .map(|v| [uv.get(v, 0) as f32, uv.get(v, 1) as f32])
+                .collect();
+            values
+        });
+        let uv = match uv {
+            Some(values) => Some(write_distinct(&mut out, "vt", &values, uv_base)?),
+            None => None,
+        };
         let normal = mesh.attribute("NORMAL").map(|n| {
             let mut n = n.clone();
             n.transform(glam::Mat3::from(instance.transform.matrix3));
-            n
+            let values: Vec<[f32; 3]> = (0..mesh.positions.len())
+                .map(|v| [0, 1, 2].map(|c| n.get(v, c) as f32))
+                .collect();
+            values
         });
-        if let Some(normal) = &normal {
-            for v in 0..mesh.positions.len() {
-                let [x, y, z] = [0, 1, 2].map(|c| normal.get(v, c) as f32);
-                writeln!(out, "vn {x} {y} {z}")?;
-            }
-        }
+        let normal = match normal {
+            Some(values) => Some(write_distinct(&mut out, "vn", &values, normal_base)?),
+            None => None,
+        };
         let mut material = None;
         for (t, tri) in mesh.triangles.iter().enumerate() {
             let m = mesh.material_ids.get(t).copied();
@@ -397,18 +438,20 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
                 }
             }
             write!(out, "f")?;
-            // v, vt and vn lines are one per vertex, so one index names all three.
-            for v in tri.map(|v| v as usize + base) {
-                match (uv.is_some(), normal.is_some()) {
-                    (false, false) => write!(out, " {v}")?,
-                    (true, false) => write!(out, " {v}/{v}")?,
-                    (false, true) => write!(out, " {v}//{v}")?,
-                    (true, true) => write!(out, " {v}/{v}/{v}")?,
+            for v in tri.map(|v| v as usize) {
+                let p = position.0[v];
+                match (&uv, &normal) {
+                    (None, None) => write!(out, " {p}")?,
+                    (Some(t), None) => write!(out, " {p}/{}", t.0[v])?,
+                    (None, Some(n)) => write!(out, " {p}//{}", n.0[v])?,
+                    (Some(t), Some(n)) => write!(out, " {p}/{}/{}", t.0[v], n.0[v])?,
                 }
             }
             writeln!(out)?;
         }
-        base += mesh.positions.len();
+        position_base += position.1;
+        uv_base += uv.map_or(0, |t| t.1);
+        normal_base += normal.map_or(0, |n| n.1);
     }
     out.flush()
 }

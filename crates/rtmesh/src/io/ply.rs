@@ -24,18 +24,36 @@ use ply_rs_bw::ply::{
 use std::io::{BufRead, Write};
 use std::path::Path;
 
-/// One vertex: its position, and every other scalar property in the order of
-/// [`EXTRA_PROPERTIES`], as f64 (exact for every PLY scalar type).
+/// Extra properties a vertex holds inline; more go to the heap.
+const INLINE: usize = 8;
+
+/// One vertex: its position, and every other scalar property as f64 (exact for every
+/// PLY scalar type) in header order, which is the order ply-rs-bw delivers them in:
+/// the first [`INLINE`] in place (a heap vector per vertex cost a third of the
+/// dragon's read), the rest in `spill`.
 #[derive(Default)]
 struct Vertex {
     position: Vec3,
-    extra: Vec<f64>,
+    inline: [f64; INLINE],
+    spill: Vec<f64>,
+    extras: usize,
 }
 
-thread_local! {
-    /// The vertex element's properties other than x, y, z, for [`Vertex`] to find its
-    /// slots by (set before the vertex payload is read; the parser's `new` takes none).
-    static EXTRA_PROPERTIES: std::cell::RefCell<Vec<String>> = const { std::cell::RefCell::new(Vec::new()) };
+impl Vertex {
+    fn extra(&self, slot: usize) -> f64 {
+        match slot.checked_sub(INLINE) {
+            None => self.inline[slot],
+            Some(s) => self.spill[s],
+        }
+    }
+
+    fn push_extra(&mut self, value: f64) {
+        match self.inline.get_mut(self.extras) {
+            Some(slot) => *slot = value,
+            None => self.spill.push(value),
+        }
+        self.extras += 1;
+    }
 }
 
 fn scalar_value(property: &Property) -> Option<f64> {
@@ -54,10 +72,7 @@ fn scalar_value(property: &Property) -> Option<f64> {
 
 impl PropertyAccess for Vertex {
     fn new() -> Self {
-        Self {
-            position: Vec3::ZERO,
-            extra: vec![0.0; EXTRA_PROPERTIES.with_borrow(Vec::len)],
-        }
+        Self::default()
     }
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
         let axis = match name {
@@ -65,14 +80,12 @@ impl PropertyAccess for Vertex {
             "y" => 1,
             "z" => 2,
             _ => {
-                let slot =
-                    EXTRA_PROPERTIES.with_borrow(|names| names.iter().position(|n| n == name));
-                return match (slot, scalar_value(&property)) {
-                    (Some(slot), Some(value)) => {
-                        self.extra[slot] = value;
+                return match scalar_value(&property) {
+                    Some(value) => {
+                        self.push_extra(value);
                         PropertyAccessResult::Set
                     }
-                    _ => PropertyAccessResult::Ignored,
+                    None => PropertyAccessResult::Ignored,
                 };
             }
         };
@@ -85,7 +98,13 @@ impl PropertyAccess for Vertex {
         }
     }
     fn set_float(&mut self, name: &str, value: f32) -> PropertyAccessResult {
-        self.set_property(name, Property::Float(value))
+        match name {
+            "x" => self.position.x = value,
+            "y" => self.position.y = value,
+            "z" => self.position.z = value,
+            _ => self.push_extra(value.into()),
+        }
+        PropertyAccessResult::Set
     }
 }
 
@@ -121,7 +140,7 @@ fn vertex_attributes(
         let scalar = scalar_type(&names[members[0]]).expect("a scalar property");
         let data: Vec<f64> = vertices
             .iter()
-            .flat_map(|v| members.iter().map(|&m| v.extra[m]))
+            .flat_map(|v| members.iter().map(|&m| v.extra(m)))
             .collect();
         let typed = match scalar {
             ScalarType::Char => AttributeValues::I8(data.iter().map(|&x| x as i8).collect()),
@@ -324,6 +343,9 @@ pub(super) fn read<R: BufRead>(
     let header = Parser::<DefaultElement>::new()
         .read_header(&mut reader)
         .map_err(|e| parse_error(&reader, e))?;
+    if header.encoding != Encoding::Ascii {
+        reader.get_mut().stop_counting_lines();
+    }
     let mut remaining = total_bytes.saturating_sub(reader.get_ref().offset());
     for element in header.elements.values() {
         let needed =
@@ -379,7 +401,6 @@ pub(super) fn read<R: BufRead>(
     for element in header.elements.values() {
         match element.name.as_str() {
             "vertex" => {
-                EXTRA_PROPERTIES.with_borrow_mut(|names| names.clone_from(&extra));
                 let vertices = Parser::<Vertex>::new()
                     .read_payload_for_element(&mut reader, element, &header)
                     .map_err(|e| parse_error(&reader, e))?;
