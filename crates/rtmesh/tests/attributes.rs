@@ -430,12 +430,11 @@ fn bisection_interpolates_on_each_side_of_a_seam() {
         for v in out_mesh.triangles[t] {
             let p = out_mesh.positions[v as usize];
             let expected = maps[chart](p);
-            for c in 0..2 {
+            for (c, want) in expected.into_iter().enumerate() {
                 let got = uv.get(v as usize, c) as f32;
                 assert!(
-                    (got - expected[c]).abs() < 1e-5,
-                    "triangle {t} corner at {p}: uv {got} vs {}",
-                    expected[c]
+                    (got - want).abs() < 1e-5,
+                    "triangle {t} corner at {p}: uv {got} vs {want}"
                 );
             }
             assert_eq!(normal.vertex(v as usize), vec![0.0, 0.0, 1.0]);
