@@ -84,7 +84,7 @@ pub fn write_mesh(scene: &rtmesh::Scene, path: &std::path::Path) -> Result<()> {
     }
     if notes.normals_renormalized > 0 {
         eprintln!(
-            "note: {}: glTF asks for unit normals and tangents, so {} vertices' were written renormalized",
+            "note: {}: glTF asks for unit normals and tangents, so {} vertices' normals or tangents were written renormalized",
             path.display(),
             notes.normals_renormalized
         );

@@ -93,6 +93,9 @@ fn info_convert_pair_lint_repair_keys() {
         "zero_area_triangles",
         "strip_degenerates_dropped",
         "ignored_line_and_point_statements",
+        "attributes",
+        "material_names",
+        "document",
     ];
     assert_keys(&["info", "builtin:grid", "--json"], &info);
     let glb = dir.join("room.glb");

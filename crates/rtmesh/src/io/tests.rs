@@ -203,9 +203,18 @@ fn gltf_keeps_materials_and_alpha_flags() {
         },
     ];
     let back = round_trip(&scene, "glb");
-    assert_eq!(back.meshes[0].triangles, scene.meshes[0].triangles);
-    assert_eq!(back.meshes[0].material_ids, scene.meshes[0].material_ids);
-    assert_eq!(back.meshes[0].alpha_tested, scene.meshes[0].alpha_tested);
+    // One primitive per material, in order of first use, each in mesh order.
+    let mesh = &scene.meshes[0];
+    let order: Vec<usize> = [0, 1]
+        .into_iter()
+        .flat_map(|m| (0..12).filter(move |&t| mesh.material_ids[t] == m))
+        .collect();
+    let expected: Vec<[u32; 3]> = order.iter().map(|&t| mesh.triangles[t]).collect();
+    assert_eq!(back.meshes[0].triangles, expected);
+    let materials: Vec<u32> = order.iter().map(|&t| mesh.material_ids[t]).collect();
+    assert_eq!(back.meshes[0].material_ids, materials);
+    let alpha: Vec<bool> = materials.iter().map(|&m| m == 1).collect();
+    assert_eq!(back.meshes[0].alpha_tested, alpha);
     assert_eq!(back.materials[..2], scene.materials[..]);
 }
 
