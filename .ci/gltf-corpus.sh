@@ -28,6 +28,10 @@ for model in "$data"/animated/*.gl*; do
   run pair "$model" -o "$out/animated-$name-paired.gltf" 2> /dev/null
   run repair "$model" --split-elongated --force-split -o "$out/animated-$name-split.glb" --size 0x0 2> /dev/null
 done
+morph=crates/rtmesh/tests/fixtures/morph-quad.gltf
+run convert "$morph" "$out/morph.glb"
+run pair "$morph" -o "$out/morph-paired.gltf"
+run repair "$morph" --split-elongated --force-split -o "$out/morph-split.glb" --size 0x0
 run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
 run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
 run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0

@@ -6,5 +6,8 @@ fuzz_target!(|data: &[u8]| {
     if let Ok(scene) = rtmesh::io::read_bytes(std::path::Path::new("fuzz.glb"), data) {
         // Whatever was read must be usable downstream.
         let _ = rtmesh::mesh::MeshInfo::of(&scene);
+        // And written back, every attribute with it (glTF from its document).
+        let out = std::env::temp_dir().join(format!("rtmesh-fuzz-{}.glb", std::process::id()));
+        let _ = rtmesh::io::write(&scene, &out);
     }
 });

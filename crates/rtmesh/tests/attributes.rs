@@ -545,3 +545,65 @@ proptest! {
         assert_repair_keeps_corners(&scene, "random grid");
     }
 }
+
+#[test]
+fn morph_targets_weights_and_extras_survive_writing_and_splitting() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/morph-quad.gltf");
+    let scene = read(&path).unwrap();
+    let delta = scene.meshes[0]
+        .attribute("target0:POSITION")
+        .expect("the morph target");
+    assert_eq!(delta.vertex(0), vec![0.0, 0.0, 0.5]);
+    for format in ["glb", "gltf"] {
+        let back = written(&scene, &format!("morph.{format}"));
+        assert_same_flat(&back, &scene, format);
+        assert_document_parts_equal(&back, &scene, format);
+        let (a, b) = (document(&back).root(), document(&scene).root());
+        assert_eq!(json_of(&a.meshes[0].weights), json_of(&b.meshes[0].weights));
+        assert_eq!(json_of(&a.meshes[0].extras), json_of(&b.meshes[0].extras));
+        assert_eq!(
+            json_of(&a.meshes[0].primitives[0].extras),
+            json_of(&b.meshes[0].primitives[0].extras)
+        );
+        assert_eq!(json_of(&a.asset), json_of(&b.asset));
+    }
+    // A split vertex's delta is the midpoint of its ends' deltas.
+    let settings = RepairSettings {
+        split_elongated: true,
+        force_split: true,
+        lint: rtmesh::lint::LintSettings {
+            empty_space: 0.0,
+            ..Default::default()
+        },
+        ..RepairSettings::default()
+    };
+    let (split, _, report) = repair(&scene, &settings);
+    assert!(report.split_edges > 0);
+    let mesh = &split.meshes[0];
+    let delta = mesh.attribute("target0:POSITION").unwrap();
+    let input = &scene.meshes[0];
+    let input_delta = input.attribute("target0:POSITION").unwrap();
+    let mut checked = 0;
+    for v in input.positions.len()..mesh.positions.len() {
+        let p = mesh.positions[v];
+        // A vertex halfway between two input vertices has the mean of their deltas
+        // (the quad's centre is halfway along both diagonals).
+        let n = input.positions.len();
+        let means: Vec<f64> = (0..n)
+            .flat_map(|a| (a + 1..n).map(move |b| (a, b)))
+            .filter(|&(a, b)| (input.positions[a] + input.positions[b]) * 0.5 == p)
+            .map(|(a, b)| 0.5 * (input_delta.get(a, 2) + input_delta.get(b, 2)))
+            .collect();
+        if !means.is_empty() {
+            let got = delta.get(v, 2);
+            assert!(
+                means.iter().any(|m| (got - m).abs() < 1e-6),
+                "vertex {v} at {p}: {got} not in {means:?}"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 0, "a split vertex between two input vertices");
+    let back = written(&split, "morph-split.glb");
+    assert_same_flat(&back, &split, "split glb");
+}

@@ -43,7 +43,7 @@ impl Vertex {
     fn extra(&self, slot: usize) -> f64 {
         match slot.checked_sub(INLINE) {
             None => self.inline[slot],
-            Some(s) => self.spill[s],
+            Some(s) => self.spill.get(s).copied().unwrap_or(0.0),
         }
     }
 

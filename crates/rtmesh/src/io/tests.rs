@@ -479,3 +479,34 @@ fn ply_vertices_without_x_y_and_z_are_errors() {
         "{message}"
     );
 }
+
+#[test]
+fn ply_keeps_every_vertex_property_with_its_type_and_name() {
+    let text = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty float s\nproperty float t\nproperty int quality\nproperty double confidence\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0 0 0 1 255 0 0 0 0 -7 0.25\n1 0 0 0 0 1 0 255 0 1 0 8 0.5\n0 1 0 0 0 1 0 0 255 0 1 2147483647 1e-300\n3 0 1 2\n";
+    let scene = read_bytes(Path::new("attributes.ply"), text).unwrap();
+    let mesh = &scene.meshes[0];
+    let names: Vec<&str> = mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["NORMAL", "COLOR_0", "TEXCOORD_0", "quality", "confidence"]
+    );
+    let colour = mesh.attribute("COLOR_0").unwrap();
+    assert!(colour.normalized);
+    assert_eq!(
+        colour.values,
+        crate::mesh::AttributeValues::U8(vec![255, 0, 0, 0, 255, 0, 0, 0, 255])
+    );
+    assert_eq!(
+        mesh.attribute("TEXCOORD_0").unwrap().component_names,
+        ["s", "t"]
+    );
+    assert_eq!(
+        mesh.attribute("quality").unwrap().values,
+        crate::mesh::AttributeValues::I32(vec![-7, 8, i32::MAX])
+    );
+    assert_eq!(mesh.attribute("confidence").unwrap().get(2, 0), 1e-300);
+    // Binary PLY gives back the same streams, names and types.
+    let back = round_trip(&scene, "ply");
+    assert_eq!(back.meshes[0].attributes, mesh.attributes);
+    assert_eq!(back.meshes[0].positions, mesh.positions);
+}
