@@ -5,7 +5,8 @@
 //! the `mtllib` files beside the OBJ when present, read by the rule for references
 //! (`reference.rs`: inside the OBJ's folder, regular files, size-limited): `map_d` or
 //! `d < 1` marks them alpha-tested. A missing `.mtl` is not an error (many files ship
-//! without one); one that breaks the rule is.
+//! without one; the `usemtl` names then stand as plain materials, so that they are
+//! kept); one that breaks the rule is.
 //!
 //! Texture coordinates (`vt`), normals (`vn`) and vertex colours after the position
 //! (`v x y z r g b`) become the attributes `TEXCOORD_0`, `NORMAL` and `COLOR_0`: each
@@ -41,15 +42,26 @@ pub(super) fn read<R: BufRead>(
     let mut ignore = |_: u64, _: u64| {};
     let mut lines = CountingReader::new(&text[..], text.len() as u64, &mut ignore);
     // A material library is read by the rule for references (`reference.rs`); one that
-    // breaks it is an error, a missing one is not (many files ship without it).
+    // breaks it is an error, a missing one is not (many files ship without it): then
+    // the `usemtl` names stand as materials of their own, so that faces keep them.
     let refused = std::cell::RefCell::new(None);
+    let named_only: String = text
+        .split(|&b| b == b'\n')
+        .filter(|line| statement_is(line, b"usemtl"))
+        .map(|line| {
+            format!(
+                "newmtl {}\n",
+                String::from_utf8_lossy(line.trim_ascii()[6..].trim_ascii())
+            )
+        })
+        .collect();
     let (models, materials) =
         tobj::load_obj_buf(
             &mut lines,
             &options,
             |mtl| match super::reference::read_referenced(path, &mtl.to_string_lossy(), root) {
                 Ok(Some(bytes)) => tobj::load_mtl_buf(&mut &bytes[..]),
-                Ok(None) => Err(tobj::LoadError::OpenFileFailed),
+                Ok(None) => tobj::load_mtl_buf(&mut named_only.as_bytes()),
                 Err(error) => {
                     refused.borrow_mut().get_or_insert(error);
                     Err(tobj::LoadError::OpenFileFailed)

@@ -510,3 +510,31 @@ fn ply_keeps_every_vertex_property_with_its_type_and_name() {
     assert_eq!(back.meshes[0].attributes, mesh.attributes);
     assert_eq!(back.meshes[0].positions, mesh.positions);
 }
+
+#[test]
+fn obj_keeps_usemtl_names_and_mtllib_without_the_library() {
+    let text = b"mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nusemtl brick\nf 1/1/1 2/2/1 3/3/1\nusemtl glass\nf 2/2/1 4/1/1 3/3/1\n";
+    let scene = read_bytes(Path::new("named.obj"), text).unwrap();
+    let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names, ["brick", "glass"]);
+    let back = round_trip(&scene, "obj");
+    let mesh = &back.meshes[0];
+    let named: Vec<&str> = mesh
+        .material_ids
+        .iter()
+        .map(|&m| back.materials[m as usize].name.as_str())
+        .collect();
+    assert_eq!(named, ["brick", "glass"]);
+    assert_eq!(
+        back.document.as_deref(),
+        Some(&crate::io::Document::Obj {
+            material_libraries: vec!["missing.mtl".into()]
+        })
+    );
+    let uv = mesh.attribute("TEXCOORD_0").unwrap();
+    let corner_uvs: Vec<Vec<f64>> = mesh.triangles[1]
+        .iter()
+        .map(|&v| uv.vertex(v as usize))
+        .collect();
+    assert_eq!(corner_uvs, [vec![1.0, 0.0], vec![0.0, 0.0], vec![0.0, 1.0]]);
+}
