@@ -15,7 +15,8 @@ pub struct Args {
     input: String,
     /// Output file: .obj, .ply (binary), .gltf (with .bin beside it) or .glb.
     output: PathBuf,
-    /// Merge vertices closer than this distance (0 = identical positions only).
+    /// Merge vertices closer than this distance (0 = identical positions only); vertices
+    /// whose attributes (UVs, normals, ...) differ are never merged, so seams stay.
     #[arg(long, value_name = "DISTANCE")]
     weld: Option<f32>,
     /// Print one JSON object instead of text.
