@@ -607,3 +607,28 @@ fn morph_targets_weights_and_extras_survive_writing_and_splitting() {
     let back = written(&split, "morph-split.glb");
     assert_same_flat(&back, &split, "split glb");
 }
+
+#[test]
+fn pairs_stay_within_one_material_and_primitive() {
+    // A grid whose two triangles of a quad differ in material, and whose rows of quads
+    // alternate group: the pairing the grid wants (each quad's diagonal) crosses keys.
+    let mut mesh = rtmesh::scenes::quad_grid(6);
+    let n = mesh.triangle_count();
+    mesh.material_ids = (0..n).map(|t| (t % 2) as u32).collect();
+    mesh.group_ids = (0..n).map(|t| ((t / 12) % 2) as u32).collect();
+    let mut scene = Scene::from_mesh(mesh.clone());
+    scene.materials.push(rtmesh::mesh::Material::default());
+    let (report, maps) = pair_scene_mapped(&mut scene, &PairSettings::default());
+    let key = |t: u32| (mesh.material_ids[t as usize], mesh.group_ids[t as usize]);
+    for pair in maps[0][..report.paired_triangles].chunks_exact(2) {
+        assert_eq!(key(pair[0]), key(pair[1]), "pair {pair:?} spans two keys");
+    }
+    // On the plain topology the same mesh pairs across the keys: the test can fail.
+    let (free, _) = rtmesh::pair::pair(&mesh.topology(), &PairSettings::default());
+    let crossing = free
+        .pairs
+        .iter()
+        .filter(|[a, b]| key(*a) != key(*b))
+        .count();
+    assert!(crossing > 0, "the grid would pair across keys");
+}

@@ -180,6 +180,41 @@ impl TriMesh {
         weld::weld_positions(self)
     }
 
+    /// [`TriMesh::topology`] with no edge shared across groups or materials: each
+    /// vertex used by triangles of several (group, material) keys is split into one per
+    /// key first. Pairing runs on it, so that a pair never spans two glTF primitives
+    /// or two materials (it could not be written as two consecutive triangles of one
+    /// primitive, nor built as one hardware quad of one geometry).
+    pub fn topology_within_groups(&self) -> TriMesh {
+        let key = |t: usize| {
+            (
+                self.group_of(t),
+                self.material_ids.get(t).copied().unwrap_or(0),
+            )
+        };
+        if (1..self.triangle_count()).all(|t| key(t) == key(0)) {
+            return self.topology();
+        }
+        let topology = self.topology();
+        let mut split: std::collections::HashMap<(u32, (u32, u32)), u32> = Default::default();
+        let mut out = TriMesh {
+            positions: Vec::with_capacity(topology.positions.len()),
+            ..topology.clone()
+        };
+        for t in 0..topology.triangle_count() {
+            out.triangles[t] = topology.triangles[t].map(|v| {
+                let Some(&p) = topology.positions.get(v as usize) else {
+                    return v;
+                };
+                *split.entry((v, key(t))).or_insert_with(|| {
+                    out.positions.push(p);
+                    out.positions.len() as u32 - 1
+                })
+            });
+        }
+        out
+    }
+
     /// No triangle is alpha-tested: the geometry may carry DXR's
     /// `D3D12_RAYTRACING_GEOMETRY_FLAG_OPAQUE` (Vulkan `VK_GEOMETRY_OPAQUE_BIT_KHR`),
     /// so that no any-hit shader runs on it.

@@ -209,7 +209,8 @@ pub struct PairReport {
 }
 
 /// Pair every geometry of `scene` in place, on its topology (vertices welded by
-/// position, so pairs cross UV seams): each mesh becomes its paired, reordered form
+/// position, so pairs cross UV seams, but not primitives or materials:
+/// [`TriMesh::topology_within_groups`]): each mesh becomes its paired, reordered form
 /// (pairs first, as consecutive triangles, then the unpaired ones), its vertices and
 /// attributes as they were. The report sums the geometries.
 pub fn pair_scene(scene: &mut crate::Scene, settings: &PairSettings) -> PairReport {
@@ -231,7 +232,7 @@ pub fn pair_scene_mapped(
     };
     let mut maps = Vec::with_capacity(scene.meshes.len());
     for mesh in &mut scene.meshes {
-        let topology = mesh.topology();
+        let topology = mesh.topology_within_groups();
         let (pairing, report) = pair(&topology, settings);
         let paired = reorder(mesh, &topology, &pairing);
         *mesh = paired.mesh;
