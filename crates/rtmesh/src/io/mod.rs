@@ -327,6 +327,14 @@ impl<'p, R: BufRead> CountingReader<'p, R> {
         self.lines + usize::from(self.in_line)
     }
 
+    /// Everything left, read into memory; an I/O error names `path`.
+    pub(crate) fn read_all(&mut self, path: &Path) -> Result<Vec<u8>, MeshError> {
+        let mut bytes = Vec::new();
+        self.read_to_end(&mut bytes)
+            .map_err(|e| MeshError::io(path, e))?;
+        Ok(bytes)
+    }
+
     /// Stop counting lines (a binary payload has none): consuming gets cheaper.
     pub(crate) fn stop_counting_lines(&mut self) {
         self.count_lines = false;

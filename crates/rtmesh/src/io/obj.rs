@@ -19,7 +19,7 @@ use super::{CountingReader, MeshError};
 use crate::mesh::{Material, Scene, TriMesh, VertexAttribute};
 use glam::{Affine3A, Vec3};
 use std::collections::HashMap;
-use std::io::{BufRead, Read, Write};
+use std::io::{BufRead, Write};
 use std::path::Path;
 
 pub(super) fn read<R: BufRead>(
@@ -27,10 +27,7 @@ pub(super) fn read<R: BufRead>(
     mut reader: CountingReader<'_, R>,
     root: &Path,
 ) -> Result<Scene, MeshError> {
-    let mut text = Vec::new();
-    reader
-        .read_to_end(&mut text)
-        .map_err(|e| MeshError::io(path, e))?;
+    let text = reader.read_all(path)?;
     check_attribute_indices(path, &text)?;
     let (text, ignored_lines, ignored_points) = without_lines_and_points(text);
     let options = tobj::LoadOptions {
@@ -45,15 +42,8 @@ pub(super) fn read<R: BufRead>(
     // breaks it is an error, a missing one is not (many files ship without it): then
     // the `usemtl` names stand as materials of their own, so that faces keep them.
     let refused = std::cell::RefCell::new(None);
-    let named_only: String = text
-        .split(|&b| b == b'\n')
-        .filter(|line| statement_is(line, b"usemtl"))
-        .map(|line| {
-            format!(
-                "newmtl {}\n",
-                String::from_utf8_lossy(line.trim_ascii()[6..].trim_ascii())
-            )
-        })
+    let named_only: String = arguments(&text, b"usemtl")
+        .map(|name| format!("newmtl {name}\n"))
         .collect();
     let (models, materials) =
         tobj::load_obj_buf(
@@ -148,16 +138,8 @@ pub(super) fn read<R: BufRead>(
         }
         faces_before += arities.len();
     }
-    scene.source_vertex_count = Some(
-        text.split(|&b| b == b'\n')
-            .filter(|line| statement_is(line, b"v"))
-            .count(),
-    );
-    let material_libraries: Vec<String> = text
-        .split(|&b| b == b'\n')
-        .filter(|line| statement_is(line, b"mtllib"))
-        .map(|line| String::from_utf8_lossy(line.trim_ascii()[6..].trim_ascii()).into_owned())
-        .collect();
+    scene.source_vertex_count = Some(statements(&text, b"v").count());
+    let material_libraries: Vec<String> = arguments(&text, b"mtllib").collect();
     if !material_libraries.is_empty() {
         scene.document = Some(std::sync::Arc::new(super::Document::Obj {
             material_libraries,
@@ -244,6 +226,19 @@ fn vertices_of(mesh: &tobj::Mesh) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32
 fn statement_is(line: &[u8], keyword: &[u8]) -> bool {
     let line = line.trim_ascii_start();
     line.starts_with(keyword) && line.get(keyword.len()).is_none_or(u8::is_ascii_whitespace)
+}
+
+/// The `keyword` statements of `text`, as lines.
+fn statements<'a>(text: &'a [u8], keyword: &'a [u8]) -> impl Iterator<Item = &'a [u8]> + 'a {
+    text.split(|&b| b == b'\n')
+        .filter(move |line| statement_is(line, keyword))
+}
+
+/// The argument (the rest of the line, trimmed) of every `keyword` statement of `text`.
+fn arguments<'a>(text: &'a [u8], keyword: &'a [u8]) -> impl Iterator<Item = String> + 'a {
+    statements(text, keyword).map(move |line| {
+        String::from_utf8_lossy(line.trim_ascii()[keyword.len()..].trim_ascii()).into_owned()
+    })
 }
 
 /// `text` with its `l` (polyline) and `p` (point) statements blanked, their line breaks

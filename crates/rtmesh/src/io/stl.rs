@@ -18,7 +18,7 @@
 use super::{CountingReader, MeshError};
 use crate::mesh::{weld_exact, Scene, TriMesh};
 use glam::{Affine3A, Vec3};
-use std::io::{BufRead, Read, Write};
+use std::io::{BufRead, Write};
 use std::path::Path;
 
 /// Bytes of the binary header: 80 free bytes, then the triangle count.
@@ -30,10 +30,7 @@ pub(super) fn read<R: BufRead>(
     path: &Path,
     mut source: CountingReader<'_, R>,
 ) -> Result<Scene, MeshError> {
-    let mut bytes = Vec::new();
-    source
-        .read_to_end(&mut bytes)
-        .map_err(|e| MeshError::io(path, e))?;
+    let bytes = source.read_all(path)?;
     let declared = (bytes.len() >= HEADER_BYTES)
         .then(|| u32::from_le_bytes(bytes[80..84].try_into().expect("four bytes")) as usize);
     let binary_size = declared.map(|n| HEADER_BYTES as u64 + FACET_BYTES as u64 * n as u64);

@@ -5,6 +5,12 @@ use super::*;
 use crate::mesh::{Scene, TriMesh};
 use crate::scenes;
 
+/// Reading `bytes` as `name` fails with a message that starts with `prefix`.
+fn assert_error(name: &str, bytes: &[u8], prefix: &str) {
+    let message = error_of(name, bytes);
+    assert!(message.starts_with(prefix), "{message}");
+}
+
 fn error_of(name: &str, bytes: &[u8]) -> String {
     match read_bytes(Path::new(name), bytes) {
         Ok(scene) => panic!(
@@ -85,8 +91,7 @@ fn ply_ascii_reads_and_errors_name_the_line() {
     assert_eq!(scene.meshes[0].triangles, vec![[0, 1, 2]]);
 
     let bad_number = format!("{ASCII_PLY_HEADER}0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n");
-    let message = error_of("t.ply", bad_number.as_bytes());
-    assert!(message.starts_with("t.ply:11:"), "{message}");
+    assert_error("t.ply", bad_number.as_bytes(), "t.ply:11:");
 
     let out_of_range = format!("{ASCII_PLY_HEADER}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
     assert!(error_of("t.ply", out_of_range.as_bytes()).contains("vertex index"));
@@ -350,8 +355,7 @@ fn stl_ascii_and_binary_weld_to_the_same_indexed_mesh() {
 fn stl_errors_name_the_file_and_line() {
     let square = [[[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
     let lying = binary_stl(&square, 1_000_000);
-    let message = error_of("lying.stl", &lying[4..]);
-    assert!(message.starts_with("lying.stl: "), "{message}");
+    assert_error("lying.stl", &lying[4..], "lying.stl: ");
     let message = error_of("lying.stl", &binary_stl(&square, 1_000_000));
     assert!(
         message.contains("declares 1000000 triangles") && message.contains("lying.stl"),
@@ -437,15 +441,15 @@ fn obj_bad_vertex_index_is_reported_at_its_own_line() {
     for i in 0..30 {
         obj.push_str(&format!("v {i} 1 1\n"));
     }
-    let message = error_of("group.obj", obj.as_bytes());
-    assert!(
-        message.starts_with("group.obj:5: face vertex index 9 is out of range (3 read so far)"),
-        "{message}"
+    assert_error(
+        "group.obj",
+        obj.as_bytes(),
+        "group.obj:5: face vertex index 9 is out of range (3 read so far)",
     );
-    let message = error_of("rel.obj", b"v 0 0 0\nv 1 0 0\nf -1 -2 -3\n");
-    assert!(
-        message.starts_with("rel.obj:3: face vertex index -3"),
-        "{message}"
+    assert_error(
+        "rel.obj",
+        b"v 0 0 0\nv 1 0 0\nf -1 -2 -3\n",
+        "rel.obj:3: face vertex index -3",
     );
 }
 
@@ -473,10 +477,10 @@ fn obj_lines_and_points_are_ignored_and_counted() {
 #[test]
 fn ply_vertices_without_x_y_and_z_are_errors() {
     let ply = b"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0\n1 0\n0 1\n3 0 1 2\n";
-    let message = error_of("flat.ply", ply);
-    assert!(
-        message.starts_with("flat.ply: 'vertex' element has no 'z' property"),
-        "{message}"
+    assert_error(
+        "flat.ply",
+        ply,
+        "flat.ply: 'vertex' element has no 'z' property",
     );
 }
 

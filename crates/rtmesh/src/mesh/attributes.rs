@@ -50,6 +50,23 @@ macro_rules! each_type {
     };
 }
 
+/// The same variant as `$values`, holding `$body` computed with `$v` bound to the typed
+/// vector inside.
+macro_rules! map_type {
+    ($values:expr, $v:ident => $body:expr) => {
+        match $values {
+            AttributeValues::U8($v) => AttributeValues::U8($body),
+            AttributeValues::I8($v) => AttributeValues::I8($body),
+            AttributeValues::U16($v) => AttributeValues::U16($body),
+            AttributeValues::I16($v) => AttributeValues::I16($body),
+            AttributeValues::U32($v) => AttributeValues::U32($body),
+            AttributeValues::I32($v) => AttributeValues::I32($body),
+            AttributeValues::F32($v) => AttributeValues::F32($body),
+            AttributeValues::F64($v) => AttributeValues::F64($body),
+        }
+    };
+}
+
 /// A scalar type an attribute can hold, converted through f64 (exact for all of them).
 trait Scalar: Copy + Default {
     /// True for f32 and f64.
@@ -211,53 +228,27 @@ impl VertexAttribute {
 
     /// The same attribute with vertex `i` taken from vertex `sources[i]`.
     pub fn gather(&self, sources: &[u32]) -> Self {
-        fn gather<T: Copy>(values: &[T], k: usize, sources: &[u32]) -> Vec<T> {
+        let k = self.components;
+        let values = map_type!(&self.values, values => {
             let mut out = Vec::with_capacity(sources.len() * k);
             for &s in sources {
                 let s = s as usize * k;
                 out.extend_from_slice(&values[s..s + k]);
             }
             out
-        }
-        let k = self.components;
-        let values = match &self.values {
-            AttributeValues::U8(v) => AttributeValues::U8(gather(v, k, sources)),
-            AttributeValues::I8(v) => AttributeValues::I8(gather(v, k, sources)),
-            AttributeValues::U16(v) => AttributeValues::U16(gather(v, k, sources)),
-            AttributeValues::I16(v) => AttributeValues::I16(gather(v, k, sources)),
-            AttributeValues::U32(v) => AttributeValues::U32(gather(v, k, sources)),
-            AttributeValues::I32(v) => AttributeValues::I32(gather(v, k, sources)),
-            AttributeValues::F32(v) => AttributeValues::F32(gather(v, k, sources)),
-            AttributeValues::F64(v) => AttributeValues::F64(gather(v, k, sources)),
-        };
-        Self {
-            values,
-            ..self.without_values()
-        }
-    }
-
-    /// Name, components and flags, with no values.
-    fn without_values(&self) -> Self {
+        });
         Self {
             name: self.name.clone(),
             components: self.components,
             normalized: self.normalized,
-            values: self.empty_like(),
+            values,
             component_names: self.component_names.clone(),
         }
     }
 
-    fn empty_like(&self) -> AttributeValues {
-        match &self.values {
-            AttributeValues::U8(_) => AttributeValues::U8(Vec::new()),
-            AttributeValues::I8(_) => AttributeValues::I8(Vec::new()),
-            AttributeValues::U16(_) => AttributeValues::U16(Vec::new()),
-            AttributeValues::I16(_) => AttributeValues::I16(Vec::new()),
-            AttributeValues::U32(_) => AttributeValues::U32(Vec::new()),
-            AttributeValues::I32(_) => AttributeValues::I32(Vec::new()),
-            AttributeValues::F32(_) => AttributeValues::F32(Vec::new()),
-            AttributeValues::F64(_) => AttributeValues::F64(Vec::new()),
-        }
+    /// The same attribute (name, type, flags) with no vertices.
+    pub fn emptied(&self) -> Self {
+        self.gather(&[])
     }
 
     /// Append a copy of vertex `v`'s values.

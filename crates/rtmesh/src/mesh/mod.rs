@@ -122,31 +122,24 @@ impl TriMesh {
     ) {
         let base = self.positions.len();
         self.positions.extend(positions);
-        let count = self.positions.len() - base;
-        let before = self.attributes.len();
-        let mut filled = vec![false; before];
         for attribute in read {
             match self
                 .attributes
-                .iter()
-                .position(|a| a.name == attribute.name)
+                .iter_mut()
+                .find(|a| a.name == attribute.name)
             {
-                Some(i) => {
-                    self.attributes[i].append(&attribute);
-                    if i < before {
-                        filled[i] = true;
-                    }
-                }
+                Some(stream) => stream.append(&attribute),
                 None => {
-                    let mut stream = attribute.gather(&[]);
+                    let mut stream = attribute.emptied();
                     stream.push_zeros(base);
                     stream.append(&attribute);
                     self.attributes.push(stream);
                 }
             }
         }
-        for (attribute, _) in self.attributes.iter_mut().zip(filled).filter(|(_, f)| !f) {
-            attribute.push_zeros(count);
+        let vertices = self.positions.len();
+        for attribute in &mut self.attributes {
+            attribute.push_zeros(vertices - attribute.vertex_count());
         }
     }
 
@@ -164,7 +157,11 @@ impl TriMesh {
     /// must match (a mesh gathered from `source`). Returns the new vertex's index.
     pub fn push_vertex_like(&mut self, source: &TriMesh, v: usize) -> u32 {
         if self.positions.is_empty() {
-            self.attributes = source.attributes.iter().map(|a| a.gather(&[])).collect();
+            self.attributes = source
+                .attributes
+                .iter()
+                .map(VertexAttribute::emptied)
+                .collect();
         }
         self.positions.push(source.positions[v]);
         for (out, from) in self.attributes.iter_mut().zip(&source.attributes) {
@@ -272,30 +269,22 @@ impl TriMesh {
     /// streams are matched by name; a vertex from a mesh without one gets zeros.
     pub fn append(&mut self, other: &TriMesh, transform: &Affine3A, material_offset: u32) {
         let base = self.positions.len() as u32;
-        let added = other.positions.len();
-        for attribute in &other.attributes {
-            if self.attribute(&attribute.name).is_none() {
-                let mut missing = attribute.gather(&[]);
-                missing.push_zeros(base as usize);
-                self.attributes.push(missing);
-            }
-        }
         let linear = glam::Mat3::from(transform.matrix3);
-        for attribute in &mut self.attributes {
-            match other.attributes.iter().find(|a| a.name == attribute.name) {
-                Some(from) => {
-                    let mut from = from.clone();
-                    from.transform(linear);
-                    attribute.append(&from);
-                }
-                None => attribute.push_zeros(added),
-            }
-        }
-        self.positions.extend(
+        let turned = other
+            .attributes
+            .iter()
+            .map(|a| {
+                let mut a = a.clone();
+                a.transform(linear);
+                a
+            })
+            .collect();
+        self.extend_vertices(
             other
                 .positions
                 .iter()
                 .map(|&p| transform.transform_point3(p)),
+            turned,
         );
         self.triangles.extend(
             other

@@ -18,7 +18,7 @@ use crate::mesh::{
 };
 use glam::{Affine3A, DMat4, Mat4, Vec3};
 use gltf::mesh::Mode;
-use std::io::{BufRead, Read};
+use std::io::BufRead;
 use std::path::Path;
 
 pub(super) fn read<R: BufRead>(
@@ -26,10 +26,7 @@ pub(super) fn read<R: BufRead>(
     mut reader: CountingReader<'_, R>,
     root: &Path,
 ) -> Result<Scene, MeshError> {
-    let mut bytes = Vec::new();
-    reader
-        .read_to_end(&mut bytes)
-        .map_err(|e| MeshError::io(path, e))?;
+    let bytes = reader.read_all(path)?;
     if bytes.starts_with(b"glTF") {
         // The gltf crate subtracts the header size from the declared length unchecked.
         let declared = bytes
