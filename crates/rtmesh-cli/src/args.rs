@@ -36,6 +36,18 @@ pub fn ray_kinds(rays: &[Rays]) -> Vec<RayKind> {
     rays.iter().map(|&r| r.into()).collect()
 }
 
+/// `--camera`, shared by `trace`, `render` and `optimize`.
+#[derive(clap::Args, Clone, Copy, Debug)]
+pub struct CameraArg {
+    /// Where the camera stands: iso (from the (1, 1, 1) diagonal), front (+Z), back,
+    /// left (−X), right, top (+Y), each looking at the centre of the bounds from 1.2 ×
+    /// their diagonal with a 45° field of view; or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOV for
+    /// eye, target, up and vertical field of view in degrees. Primary rays come from
+    /// it, and the diffuse and shadow rays from their hits.
+    #[arg(long = "camera", default_value = "iso", value_name = "VIEW")]
+    pub view: rtmesh::trace::View,
+}
+
 /// A ray-triangle test.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Intersector {

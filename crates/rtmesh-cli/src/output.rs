@@ -36,13 +36,6 @@ pub fn emit<R: Serialize>(report: &R, json: bool, text: impl FnOnce(&R)) -> Resu
     Ok(())
 }
 
-/// Print a list of reports as one pretty JSON array, each stamped.
-pub fn emit_list<R: Serialize>(reports: &[R]) -> Result<()> {
-    let stamped: Vec<_> = reports.iter().map(stamped).collect();
-    println!("{}", serde_json::to_string_pretty(&stamped)?);
-    Ok(())
-}
-
 /// One stamped JSON line (the rows of `rtmesh bench`).
 pub fn json_line<R: Serialize>(row: &R) -> String {
     serde_json::to_string(&stamped(row)).expect("reports are plain data")

@@ -54,6 +54,7 @@ pub mod geom;
 pub mod io;
 pub mod lint;
 pub mod mesh;
+pub mod optimize;
 mod pages;
 pub mod pair;
 pub mod progress;

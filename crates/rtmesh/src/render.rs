@@ -9,7 +9,7 @@
 use crate::mesh::Scene;
 use crate::trace::run::trace_closest;
 use crate::trace::workload::geometric_normal;
-use crate::trace::{Camera, RayCounters, SceneAccel, Workload};
+use crate::trace::{RayCounters, Tracer, View, Workload};
 use glam::Vec3;
 use std::path::Path;
 
@@ -56,7 +56,19 @@ impl Image {
     /// Write as an 8-bit RGB PNG.
     pub fn write_png(&self, path: &Path) -> std::io::Result<()> {
         let file = std::io::BufWriter::new(std::fs::File::create(path)?);
-        let mut encoder = png::Encoder::new(file, self.width as u32, self.height as u32);
+        self.encode_png(file)
+    }
+
+    /// The 8-bit RGB PNG file's bytes.
+    pub fn png_bytes(&self) -> Vec<u8> {
+        let mut bytes = Vec::new();
+        self.encode_png(&mut bytes)
+            .expect("encoding into memory does not fail");
+        bytes
+    }
+
+    fn encode_png(&self, out: impl std::io::Write) -> std::io::Result<()> {
+        let mut encoder = png::Encoder::new(out, self.width as u32, self.height as u32);
         encoder.set_color(png::ColorType::Rgb);
         encoder.set_depth(png::BitDepth::Eight);
         let mut writer = encoder.write_header().map_err(std::io::Error::other)?;
@@ -68,10 +80,15 @@ impl Image {
 
 const BACKGROUND: [u8; 3] = [24, 24, 28];
 
-/// The scene seen by the default camera, each pixel coloured by its hit's geometric
-/// normal (`0.5 · n + 0.5` as RGB); misses are dark grey.
-pub fn normals(scene: &Scene, accel: &SceneAccel, width: usize, height: usize) -> Image {
-    let camera = Camera::default_for(&scene.bounds(), width, height);
+/// The scene seen from `view`, each pixel coloured by its hit's geometric normal
+/// (`0.5 · n + 0.5` as RGB); misses are dark grey.
+pub fn normals(
+    scene: &Scene,
+    accel: &impl Tracer,
+    view: View,
+    (width, height): (usize, usize),
+) -> Image {
+    let camera = view.camera(&scene.bounds(), width, height);
     let work = Workload::primary(&camera, width, height);
     let (hits, _) = trace_closest::<crate::trace::NoCounters>(accel, &work.rays);
     let mut image = Image::new(width, height, BACKGROUND);
@@ -137,36 +154,94 @@ pub fn viridis(x: f32) -> [u8; 3] {
     [0, 1, 2].map(|k| (a[k] as f32 + (b[k] as f32 - a[k] as f32) * f).round() as u8)
 }
 
-/// Work per pixel of the primary rays, as a heatmap with a legend.
-pub fn heatmap(
+/// Work per pixel (row-major) of the primary rays of `scene` seen from `view`.
+pub fn work_per_pixel(
     scene: &Scene,
-    accel: &SceneAccel,
-    width: usize,
-    height: usize,
+    accel: &impl Tracer,
+    view: View,
+    (width, height): (usize, usize),
     metric: HeatmapMetric,
-) -> Heatmap {
-    let camera = Camera::default_for(&scene.bounds(), width, height);
+) -> Vec<u64> {
+    let camera = view.camera(&scene.bounds(), width, height);
     let work = Workload::primary(&camera, width, height);
     let (_, counters) = trace_closest::<RayCounters>(accel, &work.rays);
-    let value = |c: &RayCounters| match metric {
-        HeatmapMetric::BoxTests => c.box_tests,
-        HeatmapMetric::TriangleTests => c.triangle_tests,
-    };
-    let mut sorted: Vec<u64> = counters.iter().map(value).collect();
+    let mut values = vec![0; width * height];
+    for (c, &pixel) in counters.iter().zip(&work.pixels) {
+        values[pixel as usize] = match metric {
+            HeatmapMetric::BoxTests => c.box_tests,
+            HeatmapMetric::TriangleTests => c.triangle_tests,
+        };
+    }
+    values
+}
+
+/// The top of a heatmap's colour scale for `values`: their 99.5th percentile (at least
+/// 1), so that a few outliers do not wash out the rest.
+pub fn scale_top(values: &[u64]) -> u64 {
+    let mut sorted = values.to_vec();
     sorted.sort_unstable();
-    let max = sorted.last().copied().unwrap_or(0);
-    let scale_max = sorted
+    sorted
         .get(sorted.len() * 995 / 1000)
         .copied()
         .unwrap_or(0)
-        .max(1);
-    let mean = sorted.iter().sum::<u64>() as f64 / sorted.len().max(1) as f64;
-    let legend_height = 44;
-    let mut image = Image::new(width, height + legend_height, BACKGROUND);
-    for (c, &pixel) in counters.iter().zip(&work.pixels) {
-        let color = viridis(value(c) as f32 / scale_max as f32);
-        image.set(pixel as usize % width, pixel as usize / width, color);
+        .max(1)
+}
+
+/// `values` (row-major, `width` wide) in viridis from 0 to `scale_max` (and above).
+pub fn heatmap_image(values: &[u64], width: usize, scale_max: u64) -> Image {
+    let height = values.len() / width.max(1);
+    let mut image = Image::new(width, height, BACKGROUND);
+    for (i, &v) in values.iter().enumerate() {
+        image.set(
+            i % width,
+            i / width,
+            viridis(v as f32 / scale_max.max(1) as f32),
+        );
     }
+    image
+}
+
+/// `after − before` per pixel on a diverging scale: blue where `after` needs fewer
+/// tests, red where it needs more, white where they are equal; full colour at
+/// ±`scale` tests.
+pub fn difference_image(before: &[u64], after: &[u64], width: usize, scale: u64) -> Image {
+    let height = before.len() / width.max(1);
+    let mut image = Image::new(width, height, BACKGROUND);
+    for (i, (&b, &a)) in before.iter().zip(after).enumerate() {
+        let d = ((a as f32 - b as f32) / scale.max(1) as f32).clamp(-1.0, 1.0);
+        let fade = |full: f32| (255.0 + (full - 255.0) * d.abs()).round() as u8;
+        let color = if d < 0.0 {
+            [fade(33.0), fade(102.0), fade(172.0)]
+        } else {
+            [fade(178.0), fade(24.0), fade(43.0)]
+        };
+        image.set(i % width, i / width, color);
+    }
+    image
+}
+
+/// Work per pixel of the primary rays, as a heatmap with a legend.
+pub fn heatmap(
+    scene: &Scene,
+    accel: &impl Tracer,
+    view: View,
+    (width, height): (usize, usize),
+    metric: HeatmapMetric,
+) -> Heatmap {
+    let values = work_per_pixel(scene, accel, view, (width, height), metric);
+    let max = values.iter().copied().max().unwrap_or(0);
+    let scale_max = scale_top(&values);
+    let mean = values.iter().sum::<u64>() as f64 / values.len().max(1) as f64;
+    let legend_height = 44;
+    let mut image = heatmap_image(&values, width, scale_max);
+    image.height += legend_height;
+    image.rgb.extend(
+        BACKGROUND
+            .iter()
+            .copied()
+            .cycle()
+            .take(width * legend_height * 3),
+    );
     // Legend: a colour bar from 0 to the scale's top, with its ends and label.
     let (left, right) = (8, width.saturating_sub(8).max(9));
     for x in left..right {
@@ -279,14 +354,14 @@ mod tests {
     fn normal_image_shows_the_blob_and_background() {
         let scene = Scene::from_mesh(crate::scenes::scan_blob(2_000, 1));
         let accel = SceneAccel::build(&scene, &BuildSettings::default());
-        let image = normals(&scene, &accel, 64, 48);
+        let image = normals(&scene, &accel, View::Iso, (64, 48));
         assert_eq!(
             (image.width, image.height, image.rgb.len()),
             (64, 48, 64 * 48 * 3)
         );
         assert_eq!(image.get(0, 0), BACKGROUND, "corner sees the background");
         assert_ne!(image.get(32, 24), BACKGROUND, "centre sees the blob");
-        let map = heatmap(&scene, &accel, 64, 48, HeatmapMetric::BoxTests);
+        let map = heatmap(&scene, &accel, View::Iso, (64, 48), HeatmapMetric::BoxTests);
         assert_eq!(map.image.height, 48 + 44);
         assert!(map.mean > 0.0 && map.max >= map.scale_max);
     }

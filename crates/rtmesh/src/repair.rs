@@ -102,7 +102,7 @@ impl Default for RepairSettings {
 }
 
 /// What repair did, summed over geometries.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct RepairReport {
     /// Input triangles.
     pub triangles_in: usize,

@@ -6,6 +6,7 @@ pub mod convert;
 pub mod demo;
 pub mod info;
 pub mod lint;
+pub mod optimize;
 pub mod pair;
 pub mod render;
 pub mod repair;
@@ -33,6 +34,7 @@ pub struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    Optimize(optimize::Args),
     Info(info::Args),
     Convert(convert::Args),
     Pair(pair::Args),
@@ -50,6 +52,7 @@ pub fn run(cli: Cli) -> Result<()> {
         asset_root: cli.asset_root,
     });
     match cli.command {
+        Command::Optimize(args) => optimize::run(args),
         Command::Info(args) => info::run(args),
         Command::Convert(args) => convert::run(args),
         Command::Pair(args) => pair::run(args),

@@ -38,6 +38,11 @@ pub struct Args {
     /// default lets it grow by a quarter, which pairs 99.99% of the dragon).
     #[arg(long, default_value_t = 1.25)]
     pair_box_limit: f32,
+    /// Pair only across edges whose two vertex indices are shared (same attributes
+    /// too), not only positions: no pair crosses a UV seam, and hardware pairers that
+    /// match indices (Embree, HIPRT, GPURT) find every pair. `optimize` does this.
+    #[arg(long)]
+    by_index: bool,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -59,6 +64,7 @@ pub fn run(args: Args) -> Result<()> {
         method: args.method,
         prescan_threshold: (!args.no_prescan).then_some(0.85),
         pair_box_limit: args.pair_box_limit,
+        by_index: args.by_index,
     };
     let pairing = rtmesh::pair::pair_scene(&mut scene, &settings);
     if let Some(output) = &args.output {

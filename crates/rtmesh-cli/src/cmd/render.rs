@@ -1,6 +1,6 @@
 //! `rtmesh render`: a PNG of the mesh shaded by its normals, or of the tracer's work.
 
-use crate::args::{load, parse_size};
+use crate::args::{load, parse_size, CameraArg};
 use crate::output::emit;
 use anyhow::Result;
 use clap::ValueEnum;
@@ -46,6 +46,8 @@ pub struct Args {
     /// Image size WIDTHxHEIGHT.
     #[arg(long, default_value = "800x600", value_parser = parse_size)]
     size: (usize, usize),
+    #[command(flatten)]
+    camera: CameraArg,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -91,7 +93,8 @@ pub fn run(args: Args) -> Result<()> {
     };
     match args.heatmap {
         None => {
-            rtmesh::render::normals(&scene, &accel, width, height).write_png(&report.output)?;
+            rtmesh::render::normals(&scene, &accel, args.camera.view, args.size)
+                .write_png(&report.output)?;
             report.shading = Some("normals");
         }
         Some(kind) => {
@@ -99,7 +102,7 @@ pub fn run(args: Args) -> Result<()> {
                 Heatmap::Boxes => HeatmapMetric::BoxTests,
                 Heatmap::Tris => HeatmapMetric::TriangleTests,
             };
-            let map = rtmesh::render::heatmap(&scene, &accel, width, height, metric);
+            let map = rtmesh::render::heatmap(&scene, &accel, args.camera.view, args.size, metric);
             map.image.write_png(&report.output)?;
             report.heatmap = Some(kind.name());
             report.mean_per_ray = Some(map.mean);

@@ -1,6 +1,6 @@
 //! `rtmesh trace`: a ray workload through rtmesh's BVH, with speed and work per ray.
 
-use crate::args::{load, parse_size, Intersector, Rays};
+use crate::args::{load, parse_size, CameraArg, Intersector, Rays};
 use crate::output::emit;
 use anyhow::Result;
 use clap::ValueEnum;
@@ -54,6 +54,8 @@ pub struct Args {
     /// Image size WIDTHxHEIGHT (one primary ray per pixel).
     #[arg(long, default_value = "1024x1024", value_parser = parse_size)]
     size: (usize, usize),
+    #[command(flatten)]
+    camera: CameraArg,
     /// Threads (0 = all cores).
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -117,7 +119,14 @@ pub fn run(args: Args) -> Result<()> {
     let (width, height) = args.size;
     let (bvh, run, threads) = with_threads(args.threads, || {
         let triangles = SceneAccel::build(&scene, &BuildSettings::default());
-        let work = Workload::generate(kind, &scene, &triangles, width, height, 1);
+        let work = Workload::generate_from(
+            args.camera.view,
+            kind,
+            &scene,
+            &triangles,
+            (width, height),
+            1,
+        );
         let (stats, run) = if args.leaf == Leaf::Pair {
             let (welded, pairings) = rtmesh::pair::weld_and_pair(&scene, args.pair_method);
             let pairs = SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());

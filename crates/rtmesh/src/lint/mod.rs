@@ -39,7 +39,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 /// How serious a finding is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, schemars::JsonSchema)]
 #[serde(rename_all = "lowercase")]
 pub enum Severity {
     /// Worth knowing.
@@ -51,7 +51,7 @@ pub enum Severity {
 }
 
 /// One problem found.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Finding {
     /// Short name: `elongated-triangles`, `fans`, `degenerate-triangles`,
     /// `inactive-triangles`, `out-of-range-indices`, `infinite-positions`,
@@ -98,7 +98,7 @@ impl Default for LintSettings {
 }
 
 /// Quantiles of a per-triangle measure.
-#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, schemars::JsonSchema)]
 pub struct Quantiles {
     /// Median.
     pub p50: f32,
@@ -127,7 +127,7 @@ impl Quantiles {
 }
 
 /// Everything lint found.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct LintReport {
     /// Triangles in all geometries.
     pub triangles: usize,

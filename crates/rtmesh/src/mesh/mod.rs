@@ -170,6 +170,15 @@ impl TriMesh {
         self.positions.len() as u32 - 1
     }
 
+    /// Append a copy of vertex `v` (position and every attribute); returns its index.
+    pub fn copy_vertex(&mut self, v: usize) -> u32 {
+        self.positions.push(self.positions[v]);
+        for attribute in &mut self.attributes {
+            attribute.push_copy(v);
+        }
+        self.positions.len() as u32 - 1
+    }
+
     /// The mesh positions alone see: vertices welded by exact position, attributes
     /// dropped, same triangles in the same order. Adjacency, pairing and pieces run on
     /// it, so that they cross UV seams and normal creases.
@@ -183,6 +192,27 @@ impl TriMesh {
     /// or two materials (it could not be written as two consecutive triangles of one
     /// primitive, nor built as one hardware quad of one geometry).
     pub fn topology_within_groups(&self) -> TriMesh {
+        self.split_across_groups(self.topology())
+    }
+
+    /// Positions and triangles of `self` by its own vertex indices (attributes
+    /// dropped, nothing welded), split across groups as in
+    /// [`Self::topology_within_groups`]: pairs found on it share vertex indices, so a
+    /// hardware pairer that matches indices finds them too.
+    pub fn indices_within_groups(&self) -> TriMesh {
+        self.split_across_groups(TriMesh {
+            positions: self.positions.clone(),
+            triangles: self.triangles.clone(),
+            material_ids: self.material_ids.clone(),
+            alpha_tested: self.alpha_tested.clone(),
+            group_ids: self.group_ids.clone(),
+            ..TriMesh::default()
+        })
+    }
+
+    /// `topology` (the triangles of `self`, reindexed) with every vertex that
+    /// triangles of several (group, material) keys use split into one per key.
+    fn split_across_groups(&self, topology: TriMesh) -> TriMesh {
         let key = |t: usize| {
             (
                 self.group_of(t),
@@ -190,9 +220,8 @@ impl TriMesh {
             )
         };
         if (1..self.triangle_count()).all(|t| key(t) == key(0)) {
-            return self.topology();
+            return topology;
         }
-        let topology = self.topology();
         let mut split: std::collections::HashMap<(u32, (u32, u32)), u32> = Default::default();
         let mut out = TriMesh {
             positions: Vec::with_capacity(topology.positions.len()),

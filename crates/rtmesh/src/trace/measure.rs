@@ -7,7 +7,7 @@ use super::run::{
     trace_closest, trace_closest_by, trace_each, trace_occluded, trace_packets_closest,
     trace_packets_occluded,
 };
-use super::workload::{RayKind, Workload};
+use super::workload::{RayKind, View, Workload};
 use super::{Counters, Hit, NoCounters, RayCounters, SceneAccel, Tracer};
 use crate::bvh::BuildSettings;
 use crate::geom::Ray;
@@ -306,6 +306,10 @@ pub struct BeforeAfter {
     pub tri_before: f64,
     /// Triangle tests per ray after.
     pub tri_after: f64,
+    /// Pair tests per ray before (pair leaves: one test covers two triangles).
+    pub pair_before: f64,
+    /// Pair tests per ray after.
+    pub pair_after: f64,
     /// Median Mrays/s before.
     pub mrays_before: f64,
     /// Median Mrays/s after.
@@ -318,14 +322,18 @@ pub struct BeforeAfter {
 /// 100,000 pages on one edge) is traced with fewer rays instead of for minutes.
 pub const MEASURE_BUDGET_SECONDS: f64 = 2.0;
 
+/// Least seconds a measured round spends on each tracer.
+const MIN_ROUND_SECONDS: f64 = 0.01;
+
 /// The image size, at most `width` × `height` and of the same aspect, whose rays of
 /// `kind` through `before` and `after` fit `seconds` over `traces` traces of each. The
 /// cost per pixel comes from pilots that start 16 pixels wide and double their width
 /// while a pilot takes under 20 ms (a tiny pilot measures the thread pool's start more
 /// than the rays).
 fn budgeted_size(
+    view: View,
     kind: RayKind,
-    scenes: (&Scene, &SceneAccel, &SceneAccel),
+    scenes: (&Scene, &impl Tracer, &impl Tracer),
     (width, height): (usize, usize),
     traces: usize,
     seconds: f64,
@@ -334,11 +342,17 @@ fn budgeted_size(
     let mut pilot_width = width.min(16);
     let per_pixel = loop {
         let pilot_height = (height * pilot_width / width).max(1);
-        let pilot = Workload::generate(kind, before, accel_before, pilot_width, pilot_height, 1);
+        let pilot = Workload::generate_from(
+            view,
+            kind,
+            before,
+            accel_before,
+            (pilot_width, pilot_height),
+            1,
+        );
         let start = std::time::Instant::now();
-        for accel in [accel_before, accel_after] {
-            std::hint::black_box(trace_closest::<NoCounters>(accel, &pilot.rays));
-        }
+        std::hint::black_box(trace_closest::<NoCounters>(accel_before, &pilot.rays));
+        std::hint::black_box(trace_closest::<NoCounters>(accel_after, &pilot.rays));
         let spent = start.elapsed().as_secs_f64();
         if spent >= 0.02 || pilot_width == width {
             break spent / (pilot_width * pilot_height) as f64;
@@ -367,50 +381,101 @@ pub fn before_after(
     progress: &dyn Progress,
 ) -> Vec<BeforeAfter> {
     const WORKLOADS: [RayKind; 2] = [RayKind::Primary, RayKind::Diffuse];
-    progress.add_steps((1 + WORKLOADS.len() * runs.max(1)) as u64);
+    progress.add_steps(1);
     progress.message("building the BVHs before and after");
     let accel_before = SceneAccel::build(before, &BuildSettings::default());
     let accel_after = SceneAccel::build(after, &BuildSettings::default());
     progress.advance(1);
-    // Each round traces each scene twice, timed then counted; the secondary rays are
-    // generated from primary rays at their own size, so the primary budget bounds both.
-    let traces = 2 * runs.max(1);
-    let share = MEASURE_BUDGET_SECONDS / WORKLOADS.len() as f64;
-    let scenes = (before, &accel_before, &accel_after);
-    let primary_size = budgeted_size(RayKind::Primary, scenes, size, traces + 1, share);
-    WORKLOADS
-        .into_iter()
-        .map(|kind| {
-            progress.message(&format!("tracing {} rays before and after", kind.name()));
-            let (width, height) = match kind {
-                RayKind::Primary => primary_size,
-                _ => {
-                    let own = budgeted_size(kind, scenes, primary_size, traces, share);
-                    (own.0.min(primary_size.0), own.1.min(primary_size.1))
+    let traced = Traced {
+        scene: before,
+        before: &accel_before,
+        after: &accel_after,
+        view: View::Iso,
+    };
+    traced.compare(&WORKLOADS, size, runs, progress)
+}
+
+/// A scene traced through two tracers (its own, and a changed one that holds the same
+/// surfaces), from one view.
+pub struct Traced<'a, A, B> {
+    /// The scene the rays are generated on (through `before`).
+    pub scene: &'a Scene,
+    /// The tracer before the change.
+    pub before: &'a A,
+    /// The tracer after it.
+    pub after: &'a B,
+    /// Where the camera stands.
+    pub view: View,
+}
+
+impl<A: Tracer, B: Tracer> Traced<'_, A, B> {
+    /// The rays of `kinds` at `size` (or fewer, within [`MEASURE_BUDGET_SECONDS`]),
+    /// through both tracers in `runs` alternating rounds: medians and counts per ray.
+    pub fn compare(
+        &self,
+        kinds: &[RayKind],
+        size: (usize, usize),
+        runs: usize,
+        progress: &dyn Progress,
+    ) -> Vec<BeforeAfter> {
+        progress.add_steps((kinds.len() * runs.max(1)) as u64);
+        // Each round traces each scene twice, timed then counted; the secondary rays are
+        // generated from primary rays at their own size, so the primary budget bounds
+        // both.
+        let traces = 2 * runs.max(1);
+        let share = MEASURE_BUDGET_SECONDS / kinds.len().max(1) as f64;
+        let scenes = (self.scene, self.before, self.after);
+        let primary_size =
+            budgeted_size(self.view, RayKind::Primary, scenes, size, traces + 1, share);
+        kinds
+            .iter()
+            .map(|&kind| {
+                progress.message(&format!("tracing {} rays before and after", kind.name()));
+                let (width, height) = match kind {
+                    RayKind::Primary => primary_size,
+                    _ => {
+                        let own =
+                            budgeted_size(self.view, kind, scenes, primary_size, traces, share);
+                        (own.0.min(primary_size.0), own.1.min(primary_size.1))
+                    }
+                };
+                let work = Workload::generate_from(
+                    self.view,
+                    kind,
+                    self.scene,
+                    self.before,
+                    (width, height),
+                    1,
+                );
+                // A round times each tracer over at least ~10 ms (the median of as many
+                // traces as that takes), so that workloads of a millisecond measure
+                // the rays rather than the scheduler.
+                let once = measure(self.before, &work, 1).seconds;
+                let repeats = ((MIN_ROUND_SECONDS / once.max(1e-6)).ceil() as usize).clamp(1, 64);
+                let (mut a, mut b) = (Vec::new(), Vec::new());
+                for _ in 0..runs.max(1) {
+                    a.push(measure(self.before, &work, repeats));
+                    b.push(measure(self.after, &work, repeats));
+                    progress.advance(1);
                 }
-            };
-            let work = Workload::generate(kind, before, &accel_before, width, height, 1);
-            let (mut a, mut b) = (Vec::new(), Vec::new());
-            for _ in 0..runs.max(1) {
-                a.push(measure(&accel_before, &work, 1));
-                b.push(measure(&accel_after, &work, 1));
-                progress.advance(1);
-            }
-            let median_of =
-                |runs: &[TraceRun]| median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>());
-            let rays = work.rays.len();
-            BeforeAfter {
-                workload: kind.name(),
-                width,
-                height,
-                rays,
-                box_before: a[0].box_tests_per_ray,
-                box_after: b[0].box_tests_per_ray,
-                tri_before: a[0].tri_tests_per_ray,
-                tri_after: b[0].tri_tests_per_ray,
-                mrays_before: rays as f64 / median_of(&a) / 1e6,
-                mrays_after: rays as f64 / median_of(&b) / 1e6,
-            }
-        })
-        .collect()
+                let median_of =
+                    |runs: &[TraceRun]| median(&runs.iter().map(|r| r.seconds).collect::<Vec<_>>());
+                let rays = work.rays.len();
+                BeforeAfter {
+                    workload: kind.name(),
+                    width,
+                    height,
+                    rays,
+                    box_before: a[0].box_tests_per_ray,
+                    box_after: b[0].box_tests_per_ray,
+                    tri_before: a[0].tri_tests_per_ray,
+                    tri_after: b[0].tri_tests_per_ray,
+                    pair_before: a[0].pair_tests_per_ray,
+                    pair_after: b[0].pair_tests_per_ray,
+                    mrays_before: rays as f64 / median_of(&a) / 1e6,
+                    mrays_after: rays as f64 / median_of(&b) / 1e6,
+                }
+            })
+            .collect()
+    }
 }

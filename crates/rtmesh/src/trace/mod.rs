@@ -21,7 +21,7 @@ pub use accel::SceneAccel;
 pub use measure::TraceRun;
 pub use pair::{Pair4, TrianglePair};
 pub use triangle::Triangle;
-pub use workload::{Camera, RayKind, Workload};
+pub use workload::{Camera, RayKind, View, Workload};
 
 use crate::bvh::Primitive;
 use crate::geom::Ray;

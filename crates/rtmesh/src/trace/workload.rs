@@ -57,27 +57,30 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// The default camera for `bounds` and an image of `width` × `height`.
+    /// The default camera for `bounds` and an image of `width` × `height`
+    /// ([`View::Iso`]).
     pub fn default_for(bounds: &Aabb, width: usize, height: usize) -> Self {
-        let center = if bounds.is_empty() {
-            Vec3::ZERO
-        } else {
-            bounds.center()
-        };
-        let distance = 1.2 * bounds.diagonal_length().max(1e-6);
-        Self::look_at(
-            center + Vec3::ONE.normalize() * distance,
-            center,
-            45.0,
-            width,
-            height,
-        )
+        View::Iso.camera(bounds, width, height)
     }
 
-    /// A camera at `eye` looking at `target`, `fov_degrees` vertical field of view.
+    /// A camera at `eye` looking at `target`, `fov_degrees` vertical field of view, +Y
+    /// up.
     pub fn look_at(eye: Vec3, target: Vec3, fov_degrees: f32, width: usize, height: usize) -> Self {
+        Self::look_at_up(eye, target, Vec3::Y, fov_degrees, width, height)
+    }
+
+    /// A camera at `eye` looking at `target` with `up` (any vector off the view
+    /// direction) pointing up in the image, `fov_degrees` vertical field of view.
+    pub fn look_at_up(
+        eye: Vec3,
+        target: Vec3,
+        up: Vec3,
+        fov_degrees: f32,
+        width: usize,
+        height: usize,
+    ) -> Self {
         let forward = (target - eye).normalize();
-        let right = forward.cross(Vec3::Y).normalize();
+        let right = forward.cross(up).normalize();
         let up = right.cross(forward);
         let tan = (fov_degrees.to_radians() * 0.5).tan();
         let aspect = width as f32 / height.max(1) as f32;
@@ -97,6 +100,151 @@ impl Camera {
             self.eye,
             (self.forward + self.right * sx + self.up * sy).normalize(),
         )
+    }
+}
+
+/// Where the camera of a workload or picture stands: a named view of the scene's
+/// bounds, or an explicit camera (`--camera`).
+///
+/// The named views look at the bounds' centre from 1.2 × the bounds' diagonal, 45°
+/// vertical field of view: `iso` from the (1, 1, 1) diagonal (the default of every
+/// workload), `front` from +Z, `back` from −Z, `left` from −X, `right` from +X, `top`
+/// from +Y (with −Z up in the image). An explicit camera is written
+/// `EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOV`: eye, target, up, vertical field of view in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum View {
+    /// From the (1, 1, 1) diagonal, +Y up.
+    #[default]
+    Iso,
+    /// From +Z.
+    Front,
+    /// From −Z.
+    Back,
+    /// From −X.
+    Left,
+    /// From +X.
+    Right,
+    /// From +Y, −Z up.
+    Top,
+    /// Eye, target, up and vertical field of view in degrees.
+    Explicit {
+        /// Eye position.
+        eye: [f32; 3],
+        /// Point looked at.
+        target: [f32; 3],
+        /// Up in the image.
+        up: [f32; 3],
+        /// Vertical field of view, degrees.
+        fov: f32,
+    },
+}
+
+/// A `--camera` value that is neither a view name nor ten numbers.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown camera `{0}`: expected iso, front, back, left, right, top, or EX,EY,EZ,TX,TY,TZ,UX,UY,UZ,FOV (eye, target, up, field of view in degrees, eye ≠ target)")]
+pub struct UnknownView(pub String);
+
+impl std::str::FromStr for View {
+    type Err = UnknownView;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let named = match s {
+            "iso" => Some(View::Iso),
+            "front" => Some(View::Front),
+            "back" => Some(View::Back),
+            "left" => Some(View::Left),
+            "right" => Some(View::Right),
+            "top" => Some(View::Top),
+            _ => None,
+        };
+        if let Some(view) = named {
+            return Ok(view);
+        }
+        let numbers: Vec<f32> = s
+            .split(',')
+            .map(|n| n.trim().parse::<f32>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| UnknownView(s.to_owned()))?;
+        let [ex, ey, ez, tx, ty, tz, ux, uy, uz, fov] = numbers[..] else {
+            return Err(UnknownView(s.to_owned()));
+        };
+        let (eye, target, up) = (
+            Vec3::new(ex, ey, ez),
+            Vec3::new(tx, ty, tz),
+            Vec3::new(ux, uy, uz),
+        );
+        let forward = target - eye;
+        let usable = numbers.iter().all(|n| n.is_finite())
+            && forward.length_squared() > 0.0
+            && forward.cross(up).length_squared() > 0.0
+            && fov > 0.0
+            && fov < 180.0;
+        if !usable {
+            return Err(UnknownView(s.to_owned()));
+        }
+        Ok(View::Explicit {
+            eye: eye.into(),
+            target: target.into(),
+            up: up.into(),
+            fov,
+        })
+    }
+}
+
+impl std::fmt::Display for View {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            View::Iso => write!(f, "iso"),
+            View::Front => write!(f, "front"),
+            View::Back => write!(f, "back"),
+            View::Left => write!(f, "left"),
+            View::Right => write!(f, "right"),
+            View::Top => write!(f, "top"),
+            View::Explicit {
+                eye,
+                target,
+                up,
+                fov,
+            } => {
+                let numbers: Vec<String> = eye
+                    .iter()
+                    .chain(target)
+                    .chain(up)
+                    .chain([fov])
+                    .map(f32::to_string)
+                    .collect();
+                write!(f, "{}", numbers.join(","))
+            }
+        }
+    }
+}
+
+impl View {
+    /// The camera of this view for `bounds` and an image of `width` × `height`.
+    pub fn camera(&self, bounds: &Aabb, width: usize, height: usize) -> Camera {
+        let center = if bounds.is_empty() {
+            Vec3::ZERO
+        } else {
+            bounds.center()
+        };
+        let distance = 1.2 * bounds.diagonal_length().max(1e-6);
+        let (from, up) = match *self {
+            View::Iso => (Vec3::ONE.normalize(), Vec3::Y),
+            View::Front => (Vec3::Z, Vec3::Y),
+            View::Back => (-Vec3::Z, Vec3::Y),
+            View::Left => (-Vec3::X, Vec3::Y),
+            View::Right => (Vec3::X, Vec3::Y),
+            View::Top => (Vec3::Y, -Vec3::Z),
+            View::Explicit {
+                eye,
+                target,
+                up,
+                fov,
+            } => {
+                return Camera::look_at_up(eye.into(), target.into(), up.into(), fov, width, height)
+            }
+        };
+        Camera::look_at_up(center + from * distance, center, up, 45.0, width, height)
     }
 }
 
@@ -202,8 +350,20 @@ impl Workload {
         height: usize,
         seed: u64,
     ) -> Self {
+        Self::generate_from(View::Iso, kind, scene, accel, (width, height), seed)
+    }
+
+    /// [`Self::generate`] seen from `view`.
+    pub fn generate_from(
+        view: View,
+        kind: RayKind,
+        scene: &Scene,
+        accel: &impl Tracer,
+        (width, height): (usize, usize),
+        seed: u64,
+    ) -> Self {
         let bounds = scene.bounds();
-        let primary = Self::primary(&Camera::default_for(&bounds, width, height), width, height);
+        let primary = Self::primary(&view.camera(&bounds, width, height), width, height);
         if kind == RayKind::Primary {
             return primary;
         }
