@@ -149,8 +149,29 @@ fn assert_repair_keeps_corners(scene: &Scene, what: &str) -> Scene {
     out
 }
 
-/// The whole chain on one file: convert to each format, pair, repair, and the
-/// written forms of the paired and repaired scenes.
+/// `optimize` (without merging, which moves positions into a shared space) keeps every
+/// kept triangle's corners, copied vertices included.
+fn assert_optimize_keeps_corners(scene: &Scene, what: &str) -> Scene {
+    let mut options = rtmesh::optimize::OptimizeOptions {
+        measure: None,
+        ..Default::default()
+    };
+    options.repair.merge_overlapping = false;
+    let out = rtmesh::optimize::optimize_mapped(scene, &options, &()).unwrap();
+    for (g, mesh) in out.scene.meshes.iter().enumerate() {
+        for t in 0..mesh.triangle_count() {
+            let input = &scene.meshes[out.input_geometry[g][t] as usize];
+            assert!(
+                same_corners(mesh, t, input, out.input_triangle[g][t] as usize),
+                "{what}: optimized geometry {g} triangle {t}"
+            );
+        }
+    }
+    out.scene
+}
+
+/// The whole chain on one file: convert to each format, pair, repair, optimize, and
+/// the written forms of the paired, repaired and optimized scenes.
 fn check_file(path: &Path, formats: &[&str]) -> Scene {
     let what = path.display().to_string();
     let scene = read(path).unwrap_or_else(|e| panic!("{e}"));
@@ -169,6 +190,7 @@ fn check_file(path: &Path, formats: &[&str]) -> Scene {
     }
     let paired = assert_pairing_keeps_corners(&scene, &what);
     let repaired = assert_repair_keeps_corners(&scene, &what);
+    let optimized = assert_optimize_keeps_corners(&scene, &what);
     for format in formats {
         let unit = |s: &Scene| {
             if format.starts_with("gl") {
@@ -184,6 +206,12 @@ fn check_file(path: &Path, formats: &[&str]) -> Scene {
             &back,
             &unit(&repaired),
             &format!("{what} repaired -> {format}"),
+        );
+        let back = written(&optimized, &format!("optimize.{format}"));
+        assert_same_flat(
+            &back,
+            &unit(&optimized),
+            &format!("{what} optimized -> {format}"),
         );
     }
     scene

@@ -33,6 +33,7 @@ pub fn run(args: Args) -> Result<()> {
         dry_run: false,
         json: args.json,
         picture_size: (480, 360),
+        jobs: 0,
     };
     let index = dir.join("index.html");
     run_jobs(&jobs, &settings, Some(&index))?;
