@@ -35,3 +35,7 @@ run repair "$morph" --split-elongated --force-split -o "$out/morph-split.glb" --
 run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
 run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
 run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0
+# `optimize`, the main job: every glTF/GLB of the library as itself, the OBJ scenes
+# with materials as GLB, and the skinned models as .gltf.
+run optimize "$data/2CylinderEngine.glb" "$data/animated" "$data/sponza_dabrovic.obj" "$data/spot.obj" "$data/conference.obj" -o "$out/optimized" --format glb --size 0x0 2> /dev/null
+run optimize "$data/animated" builtin:room -o "$out/optimized-gltf" --format gltf --size 0x0 2> /dev/null

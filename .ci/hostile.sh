@@ -18,6 +18,7 @@ subcommands=(
   "trace --size 64x64 --runs 1"
   "render -o $work/out.png --size 64x48"
   "convert $work/out.glb"
+  "optimize -o $work/optimized.glb --size 64x64 --runs 1"
 )
 checked=0 failed=0
 for file in *.obj *.ply *.gltf *.glb *.stl; do

@@ -72,9 +72,26 @@ fn convert_writes_a_mesh_that_reads_back() {
 }
 
 #[test]
-fn demo_runs() {
-    let demo = json_of(&["demo", "--json"]);
-    assert_eq!(demo.as_array().map(Vec::len), Some(4));
+fn demo_optimizes_the_built_in_scenes_and_writes_the_reports() {
+    let dir = std::env::temp_dir().join(format!("rtmesh-cli-demo-{}", std::process::id()));
+    let out = rtmesh(&["demo", "-o", dir.to_str().unwrap(), "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lines: Vec<serde_json::Value> = String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 4);
+    for (line, name) in lines.iter().zip(["blob", "grid", "cylinder", "room"]) {
+        assert_eq!(line["ok"], true);
+        assert!(dir.join(format!("{name}.glb")).is_file());
+        assert!(dir.join(format!("{name}.html")).is_file());
+    }
+    assert!(dir.join("index.html").is_file());
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

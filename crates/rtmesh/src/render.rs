@@ -341,6 +341,30 @@ fn draw_text(image: &mut Image, x0: usize, y0: usize, text: &str, color: [u8; 3]
 mod tests {
     use super::*;
     use crate::bvh::BuildSettings;
+    use crate::trace::SceneAccel;
+
+    #[test]
+    fn heatmap_and_difference_pixels() {
+        let image = heatmap_image(&[0, 5, 10, 20], 2, 10);
+        assert_eq!((image.width, image.height), (2, 2));
+        assert_eq!(image.get(0, 0), viridis(0.0));
+        assert_eq!(image.get(1, 0), viridis(0.5));
+        assert_eq!(image.get(1, 1), viridis(1.0), "clamped above the scale");
+        let difference = difference_image(&[4, 4, 4], &[4, 0, 12], 3, 4);
+        assert_eq!(difference.get(0, 0), [255, 255, 255], "no change is white");
+        assert_eq!(
+            difference.get(1, 0),
+            [33, 102, 172],
+            "fewer tests: full blue"
+        );
+        assert_eq!(
+            difference.get(2, 0),
+            [178, 24, 43],
+            "more tests: full red (clamped)"
+        );
+        assert_eq!(scale_top(&[0; 10]), 1);
+        assert_eq!(scale_top(&(0..1000).collect::<Vec<u64>>()), 995);
+    }
 
     #[test]
     fn viridis_ends_and_clamps() {

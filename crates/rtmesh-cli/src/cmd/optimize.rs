@@ -1,7 +1,7 @@
 //! `rtmesh optimize`: the main job, for one file or a whole library.
 
 use crate::args::{load, parse_size_or_zero, CameraArg};
-use crate::output::{json_line, steps_bar, write_mesh};
+use crate::output::{steps_bar, write_mesh};
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use rtmesh::optimize::html::{Header, Pictures};
@@ -142,8 +142,19 @@ pub struct FileReport {
     error: Option<String>,
     /// Wall-clock seconds for this file, reading and writing included.
     seconds: f64,
+    /// The library's report (with its own `rtmesh_version` and `schema`).
     #[serde(flatten)]
     optimize: Option<OptimizeReport>,
+    /// `rtmesh_version` and `schema` of a line without the library's report.
+    #[serde(flatten)]
+    stamp: Option<Stamp>,
+}
+
+/// The version keys of a failed file's line.
+#[derive(Serialize)]
+struct Stamp {
+    rtmesh_version: &'static str,
+    schema: u32,
 }
 
 /// Optimize every input.
@@ -152,7 +163,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut options = OptimizeOptions {
         target: args.target,
         pair_method: args.pair_method,
-        measure: (args.size.0 > 0).then(|| MeasureOptions {
+        measure: (args.size.0 > 0).then_some(MeasureOptions {
             size: args.size,
             runs: args.runs,
             view: args.camera.view,
@@ -290,8 +301,14 @@ pub fn run_jobs(jobs: &[Job], settings: &Settings, index: Option<&Path>) -> Resu
     let finish = |report: &FileReport| {
         let _lock = printed.lock().expect("printing does not panic");
         bar.0.suspend(|| {
+            if let Some(error) = &report.error {
+                eprintln!("error: {error}");
+            }
             if settings.json {
-                println!("{}", json_line(report));
+                println!(
+                    "{}",
+                    serde_json::to_string(report).expect("reports are plain data")
+                );
             } else if jobs.len() == 1 {
                 print_one(report);
             } else {
@@ -365,9 +382,20 @@ fn run_job(job: &Job, settings: &Settings, progress: &dyn Progress) -> FileRepor
         error: None,
         seconds: 0.0,
         optimize: None,
+        stamp: None,
     };
     if let Err(error) = optimize_file(job, settings, progress, &mut report) {
-        report.error = Some(format!("{error:#}"));
+        // Every message names the input file.
+        let message = format!("{error:#}");
+        report.error = Some(if message.contains(&job.input) {
+            message
+        } else {
+            format!("{}: {message}", job.input)
+        });
+        report.stamp = Some(Stamp {
+            rtmesh_version: env!("CARGO_PKG_VERSION"),
+            schema: rtmesh::optimize::SCHEMA,
+        });
     } else {
         report.ok = true;
     }
@@ -512,7 +540,6 @@ fn primary_of(
 
 fn print_one(file: &FileReport) {
     let Some(r) = &file.optimize else {
-        eprintln!("error: {}", file.error.as_deref().unwrap_or("failed"));
         return;
     };
     println!(
@@ -588,20 +615,15 @@ fn print_one(file: &FileReport) {
 }
 
 fn print_line(file: &FileReport) {
-    match &file.optimize {
-        Some(r) => println!(
+    if let Some(r) = &file.optimize {
+        println!(
             "ok    {}: {} → {} triangles, {:.2}% paired, {:.2} s",
             file.input,
             r.triangles_in,
             r.triangles_out,
             100.0 * r.pair_ratio,
             file.seconds
-        ),
-        None => println!(
-            "error {}: {}",
-            file.input,
-            file.error.as_deref().unwrap_or("failed")
-        ),
+        );
     }
 }
 

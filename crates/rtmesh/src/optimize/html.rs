@@ -422,9 +422,9 @@ fn histogram_svg(title: &str, histogram: &Histogram, label: impl Fn(f64) -> Stri
         }
     }
     let total: u64 = histogram.counts.iter().sum();
-    let _ = write!(
+    let _ = writeln!(
         svg,
-        "</svg><figcaption>{title} ({total} in all; the last bar counts everything above)</figcaption></figure>\n"
+        "</svg><figcaption>{title} ({total} in all; the last bar counts everything above)</figcaption></figure>"
     );
     svg
 }

@@ -152,9 +152,11 @@ pub enum OptimizeError {
     #[error("target `{0}` is not built yet: use pairs or triangles")]
     TargetNotBuilt(Target),
     /// No triangle of the input can be hit by a ray.
-    #[error(
-        "nothing to trace: none of the {triangles} triangles has three finite, distinct corners that span an area"
-    )]
+    #[error("nothing to trace: {}", if *triangles == 0 {
+        "the input holds no triangle".to_owned()
+    } else {
+        format!("none of the {triangles} triangles has three finite, distinct corners that span an area")
+    })]
     NothingToTrace {
         /// Triangles in the input.
         triangles: usize,

@@ -1,0 +1,299 @@
+//! `rtmesh optimize` as users and farm scripts run it: a folder with good and bad
+//! files, JSON lines, the mirrored output tree, a folder it cannot write, and the HTML
+//! report opened in a real headless browser (Debian's `chromium`) under the report's
+//! Content-Security-Policy.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn rtmesh(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_rtmesh"))
+        .args(args)
+        .output()
+        .expect("run rtmesh")
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("rtmesh-optimize-{name}-{}", std::process::id()));
+    std::fs::remove_dir_all(&dir).ok();
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn lines(out: &Output) -> Vec<serde_json::Value> {
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap_or_else(|e| panic!("{e}: {l}")))
+        .collect()
+}
+
+const QUADS: &str =
+    "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0 0\nv 2 1 0\nf 1 2 3\nf 1 3 4\nf 2 5 6\nf 2 6 3\n";
+
+#[test]
+fn a_batch_reports_bad_files_and_finishes_the_good_ones() {
+    let dir = temp_dir("batch");
+    let input = dir.join("in");
+    std::fs::create_dir_all(input.join("sub")).unwrap();
+    std::fs::write(input.join("good.obj"), QUADS).unwrap();
+    std::fs::write(input.join("sub/also-good.obj"), QUADS).unwrap();
+    std::fs::write(input.join("empty.obj"), "").unwrap();
+    std::fs::write(input.join("broken.obj"), "v 0 0 0\nv 1 0 0\nf 1 2 7\n").unwrap();
+    std::fs::write(
+        input.join("nan.obj"),
+        "v nan 0 0\nv 0 nan 0\nv 0 0 nan\nf 1 2 3\n",
+    )
+    .unwrap();
+    let output = dir.join("out");
+    let out = rtmesh(&[
+        "optimize",
+        input.to_str().unwrap(),
+        "-o",
+        output.to_str().unwrap(),
+        "--json",
+        "--size",
+        "32x32",
+        "--runs",
+        "1",
+    ]);
+    assert_eq!(out.status.code(), Some(1), "a failed file fails the run");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("3 of 5 files failed"), "{stderr}");
+    assert!(stderr.contains("tris in"), "the summary table: {stderr}");
+    let reports = lines(&out);
+    assert_eq!(reports.len(), 5);
+    let by_name = |name: &str| {
+        reports
+            .iter()
+            .find(|r| r["input"].as_str().unwrap().ends_with(name))
+            .unwrap_or_else(|| panic!("{name}"))
+    };
+    for good in ["in/good.obj", "sub/also-good.obj"] {
+        let r = by_name(good);
+        assert_eq!(r["ok"], true, "{r}");
+        for key in [
+            "input",
+            "output",
+            "report",
+            "ok",
+            "error",
+            "seconds",
+            "triangles_in",
+            "triangles_out",
+            "pair_ratio",
+            "same_hits",
+            "repairs",
+            "before",
+            "after",
+        ] {
+            assert!(r.get(key).is_some(), "{good}: no {key}");
+        }
+        assert_eq!(r["pair_ratio"], 1.0);
+        for workload in ["primary", "diffuse", "shadow"] {
+            for key in ["box_tests_per_ray", "tri_tests_per_ray", "mrays_per_s"] {
+                assert!(r["after"][workload][key].is_number(), "{workload} {key}");
+            }
+        }
+        assert!(r["after"]["bvh_bytes"].as_u64().unwrap() > 0);
+    }
+    // The tree is mirrored, with the pair lists beside the meshes.
+    assert!(output.join("good.obj").is_file());
+    assert!(output.join("sub/also-good.obj").is_file());
+    let pairs: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(output.join("good.obj.pairs.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        pairs["primitives"][0]["trianglePairIndices"],
+        serde_json::json!([0, 1, 2, 3])
+    );
+    let error = |name: &str| by_name(name)["error"].as_str().unwrap().to_owned();
+    assert!(
+        error("broken.obj").contains("broken.obj:3:"),
+        "{}",
+        error("broken.obj")
+    );
+    assert!(
+        error("empty.obj").contains("empty.obj"),
+        "{}",
+        error("empty.obj")
+    );
+    assert!(
+        error("nan.obj").contains("nothing to trace"),
+        "{}",
+        error("nan.obj")
+    );
+    assert!(!output.join("broken.obj").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_output_folder_it_cannot_write_is_a_clear_error() {
+    let dir = temp_dir("readonly");
+    let mesh = dir.join("quads.obj");
+    std::fs::write(&mesh, QUADS).unwrap();
+    let locked = dir.join("locked");
+    std::fs::create_dir_all(&locked).unwrap();
+    let mut permissions = std::fs::metadata(&locked).unwrap().permissions();
+    std::os::unix::fs::PermissionsExt::set_mode(&mut permissions, 0o555);
+    std::fs::set_permissions(&locked, permissions).unwrap();
+    // Root writes into any folder; sysfs refuses new files even to root.
+    let probe = locked.join("probe");
+    let target = if std::fs::write(&probe, "").is_ok() {
+        std::fs::remove_file(&probe).ok();
+        PathBuf::from("/sys/rtmesh-cannot-write-here")
+    } else {
+        locked.clone()
+    };
+    let output = target.join("quads.obj");
+    let out = rtmesh(&[
+        "optimize",
+        mesh.to_str().unwrap(),
+        "-o",
+        output.to_str().unwrap(),
+        "--size",
+        "0x0",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains(target.to_str().unwrap()), "{stderr}");
+    // --dry-run writes nothing, so it succeeds there.
+    let dry = rtmesh(&[
+        "optimize",
+        mesh.to_str().unwrap(),
+        "--dry-run",
+        "--size",
+        "0x0",
+    ]);
+    assert!(
+        dry.status.success(),
+        "{}",
+        String::from_utf8_lossy(&dry.stderr)
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `chromium` (or `$RTMESH_CHROMIUM`), when installed; CI requires it
+/// (`RTMESH_REQUIRE_BROWSER=1`).
+fn chromium() -> Option<PathBuf> {
+    let candidate = std::env::var_os("RTMESH_CHROMIUM")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("chromium"));
+    let found = Command::new(&candidate)
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if found {
+        return Some(candidate);
+    }
+    if std::env::var("RTMESH_REQUIRE_BROWSER").is_ok_and(|v| v == "1") {
+        panic!(
+            "RTMESH_REQUIRE_BROWSER=1 but {} does not run",
+            candidate.display()
+        );
+    }
+    eprintln!("note: no chromium; the browser test is skipped (apt-get install chromium)");
+    None
+}
+
+/// Run headless chromium on `page`: (the DOM, the browser's log).
+fn headless(chromium: &Path, page: &Path, extra: &[&str]) -> (String, String) {
+    let url = format!("file://{}", page.display());
+    let out = Command::new(chromium)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--enable-logging=stderr",
+            "--v=0",
+        ])
+        .args(extra)
+        .arg(&url)
+        .output()
+        .expect("run chromium");
+    (
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn the_report_opens_in_a_headless_browser_and_is_self_contained() {
+    let Some(chromium) = chromium() else { return };
+    let dir = temp_dir("browser");
+    let report = dir.join("room.html");
+    let out = rtmesh(&[
+        "optimize",
+        "builtin:room",
+        "-o",
+        dir.join("room.glb").to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+        "--size",
+        "128x128",
+        "--runs",
+        "1",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (dom, log) = headless(&chromium, &report, &["--dump-dom"]);
+    for text in [
+        "<h1>rtmesh optimize: builtin:room</h1>",
+        "Same first hits",
+        "One colour scale for both",
+        "input SHA-256",
+        "Findings",
+        "Geometries",
+        "pair box / triangle boxes",
+    ] {
+        assert!(dom.contains(text), "the page lacks {text:?}");
+    }
+    assert!(dom.matches("<img src=\"data:image/png;base64,").count() >= 4);
+    assert!(dom.matches("<svg").count() >= 3);
+    // The embedded report reads back.
+    let start = dom.find("id=\"report\">").expect("the JSON block") + "id=\"report\">".len();
+    let end = start + dom[start..].find("</script>").unwrap();
+    let embedded: serde_json::Value = serde_json::from_str(&dom[start..end]).unwrap();
+    assert_eq!(embedded["report"]["target"], "pairs");
+    assert_eq!(embedded["report"]["triangles_in"], 2900);
+    // Nothing was blocked by the policy, and the check can see a block when there is one.
+    assert!(!log.contains("Content Security Policy"), "{log}");
+    let control = dir.join("control.html");
+    std::fs::write(
+        &control,
+        format!(
+            "<!DOCTYPE html><html><head><meta http-equiv=\"Content-Security-Policy\" content=\"{}\"></head><body><img src=\"https://example.invalid/x.png\"></body></html>",
+            rtmesh_policy()
+        ),
+    )
+    .unwrap();
+    let (_, control_log) = headless(&chromium, &control, &["--dump-dom"]);
+    assert!(
+        control_log.contains("Content Security Policy"),
+        "{control_log}"
+    );
+    // A screenshot for a person to look at (kept in target/).
+    let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("report-screenshot.png");
+    headless(
+        &chromium,
+        &report,
+        &[
+            "--window-size=1200,2400",
+            &format!("--screenshot={}", shot.display()),
+        ],
+    );
+    let png = std::fs::read(&shot).expect("a screenshot");
+    assert!(
+        png.starts_with(b"\x89PNG") && png.len() > 20_000,
+        "{} bytes",
+        png.len()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The policy the report declares, read from a report's own head.
+fn rtmesh_policy() -> &'static str {
+    "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
+}
