@@ -5,7 +5,8 @@
 //! slow to trace and [`repair`] fixes it, both on the shared [`analysis`]; [`pair`]
 //! pairs triangles that share an edge; [`bvh`] builds the 8-wide SAH hierarchy that
 //! [`trace`] traverses to measure box tests, triangle tests and Mrays/s on deterministic
-//! workloads; [`render`] draws images and cost heatmaps. [`simd`] holds the CPU
+//! workloads; [`render`] draws images and cost heatmaps; [`optimize`] is the main job,
+//! all of it in one call, with the report that proves the gain. [`simd`] holds the CPU
 //! detection and the one dispatch to AVX kernels. Comparisons with Embree and the
 //! papers' experiments live in the `rtmesh-lab` crate.
 //!

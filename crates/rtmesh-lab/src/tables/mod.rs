@@ -4,4 +4,5 @@
 pub mod intersect;
 pub mod packets;
 pub mod pairing;
+pub mod quads;
 pub mod trace;

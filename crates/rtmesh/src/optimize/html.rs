@@ -123,11 +123,10 @@ svg text{font:11px system-ui,sans-serif}";
 
 /// `before → after` with the change in percent, coloured by whether lower is better.
 fn change(before: f64, after: f64, decimals: usize, lower_is_better: bool) -> String {
-    let percent = if before != 0.0 {
-        100.0 * (after / before - 1.0)
-    } else {
-        0.0
-    };
+    if before == 0.0 {
+        return format!("<td>{before:.decimals$}</td><td>{after:.decimals$}</td><td></td>");
+    }
+    let percent = 100.0 * (after / before - 1.0);
     let class = if percent.abs() < 1.0 {
         ""
     } else if (percent < 0.0) == lower_is_better {
@@ -233,6 +232,33 @@ fn bvh_rows(out: &mut String, b: &Figures, a: &Figures) {
             change(before, after, decimals, true)
         );
     }
+}
+
+fn production(out: &mut String, report: &OptimizeReport) {
+    out.push_str("<h2>A production tracer</h2>\n");
+    if report.production.is_empty() {
+        out.push_str("<p>Not measured: this rtmesh was built without Embree (<code>cargo build --release -p rtmesh-cli --features embree</code>, with Debian's <code>libembree-dev</code>, adds Embree given the input's triangles and the output's pairs as quads).</p>\n");
+        return;
+    }
+    out.push_str("<table><tr><th>tracer</th><th>workload</th><th>Mrays/s before</th><th>after</th><th>change</th><th>BVH bytes before</th><th>after</th><th>change</th><th>build s before</th><th>after</th><th>change</th><th>same hits</th></tr>\n");
+    for row in &report.production {
+        let _ = writeln!(
+            out,
+            "<tr><td>{}</td><td>{}</td>{}{}{}<td>{:.3}%</td></tr>",
+            escape(&row.tracer),
+            escape(&row.workload),
+            change(row.mrays_before, row.mrays_after, 2, false),
+            change(
+                row.bvh_bytes_before as f64,
+                row.bvh_bytes_after as f64,
+                0,
+                true
+            ),
+            change(row.build_seconds_before, row.build_seconds_after, 4, true),
+            100.0 * row.same_hits
+        );
+    }
+    out.push_str("</table>\n");
 }
 
 fn repairs_and_pairing(out: &mut String, report: &OptimizeReport) {
@@ -484,6 +510,7 @@ pub fn html(report: &OptimizeReport, header: &Header, pictures_of: Option<&Pictu
     }
     out.push_str("</table>\n");
     summary(&mut out, report);
+    production(&mut out, report);
     if let Some(p) = pictures_of {
         pictures(&mut out, p);
     }

@@ -4,8 +4,10 @@ use crate::args::{file_name, load, parse_size, ray_kinds, Rays};
 use crate::output::{json_line, steps_bar};
 use anyhow::Result;
 use clap::ValueEnum;
+use rtmesh::optimize::OptimizeOptions;
 use rtmesh::progress::Progress;
 use rtmesh_lab::reference::CompareSettings;
+use rtmesh_lab::tables::quads::{embree_quads, QuadRow, QuadSettings};
 use rtmesh_lab::tables::trace::{compare_with, trace_rows, Other};
 
 /// A tracer to compare with.
@@ -15,6 +17,10 @@ enum Vs {
     Embree,
     /// The obvhs crate's CWBVH (a build with `--features obvhs`).
     Obvhs,
+    /// Embree given the input as triangles and `optimize`'s output as quads (its pairs
+    /// as one QUAD geometry, unpaired triangles as degenerate quads): BVH bytes, build
+    /// time and Mrays/s (a build with `--features embree`).
+    EmbreeQuads,
 }
 
 /// Trace the same rays through rtmesh and (with --vs) another tracer, side by side.
@@ -53,6 +59,10 @@ pub struct Args {
     /// Print one JSON object per line (mesh × workload × threads) instead of a table.
     #[arg(long)]
     json: bool,
+    /// With --vs embree-quads: the pairing method (default: optimize's, the best of the
+    /// input order, sah-max and window:2).
+    #[arg(long)]
+    pair_method: Option<rtmesh::pair::PairMethod>,
 }
 
 /// Measure each mesh and print its rows as they come.
@@ -63,7 +73,7 @@ pub fn run(args: Args) -> Result<()> {
                 "{:<24} {:>8} {:>3} {:>8} {:>11} {:>8} {:>8} {:>9}",
                 "mesh", "rays", "thr", "workload", "Mrays/s", "box/ray", "tri/ray", "build s"
             );
-        } else {
+        } else if args.vs.iter().any(|&vs| vs != Vs::EmbreeQuads) {
             println!(
                 "{:<24} {:>8} {:>3} {:>8} {:>7} {:>11} {:>10} {:>7} {:>9} {:>9} {:>8}",
                 "mesh",
@@ -121,6 +131,24 @@ pub fn run(args: Args) -> Result<()> {
             let other = match vs {
                 Vs::Embree => Other::Embree,
                 Vs::Obvhs => Other::Obvhs,
+                Vs::EmbreeQuads => {
+                    bar.message(&format!("{name}: Embree on triangles and on quads"));
+                    let quads = QuadSettings {
+                        kinds: settings.kinds.clone(),
+                        size: settings.size,
+                        thread_counts: settings.thread_counts.clone(),
+                        runs: settings.runs,
+                        builds: settings.builds,
+                        optimize: OptimizeOptions {
+                            pair_method: args.pair_method,
+                            ..OptimizeOptions::default()
+                        },
+                    };
+                    let rows = embree_quads(name, &scene, &quads)?;
+                    bar.0.suspend(|| print_quads(&rows, args.json));
+                    bar.advance(1);
+                    continue;
+                }
             };
             bar.message(&format!("{name}: rtmesh and {}", other.name()));
             for row in compare_with(other, name, &scene, &settings)? {
@@ -141,4 +169,38 @@ pub fn run(args: Args) -> Result<()> {
     }
     bar.0.finish_and_clear();
     Ok(())
+}
+
+/// The rows of `--vs embree-quads`, under their own header.
+fn print_quads(rows: &[QuadRow], json: bool) {
+    if json {
+        rows.iter().for_each(|row| println!("{}", json_line(row)));
+        return;
+    }
+    println!(
+        "{:<24} {:>11} {:>7} {:>8} {:>3} {:>8} {:>9} {:>9} {:>7} {:>10} {:>10} {:>8} {:>8} {:>8}",
+        "mesh",
+        "pairing",
+        "paired",
+        "workload",
+        "thr",
+        "rays",
+        "tri Mr/s",
+        "quad Mr/s",
+        "speed",
+        "tri bytes",
+        "quad bytes",
+        "tri bld",
+        "quad bld",
+        "same"
+    );
+    for r in rows {
+        println!(
+            "{:<24} {:>11} {:>6.2}% {:>8} {:>3} {:>8} {:>9.2} {:>9.2} {:>6.2}x {:>10} {:>10} {:>8.4} {:>8.4} {:>7.3}%",
+            r.mesh, r.pairing, 100.0 * r.pair_ratio, r.workload, r.threads, r.rays,
+            r.triangles_mrays_per_s, r.quads_mrays_per_s, r.speedup, r.triangles_bvh_bytes,
+            r.quads_bvh_bytes, r.triangles_build_seconds, r.quads_build_seconds,
+            100.0 * r.same_hits
+        );
+    }
 }
