@@ -293,6 +293,8 @@ fn trace_render_demo_keys() {
             "after",
             "geometries",
             "histograms",
+            "production",
+            "step_seconds",
         ],
     );
     assert_eq!(demo.len(), 4);

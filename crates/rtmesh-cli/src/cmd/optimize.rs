@@ -610,7 +610,7 @@ fn print_one(file: &FileReport) {
         r.pairing
             .as_ref()
             .map_or("no pairing", |p| p.method.as_str()),
-        r.seconds.prepare
+        r.step_seconds.prepare
     );
     let rep = &r.repairs;
     println!(

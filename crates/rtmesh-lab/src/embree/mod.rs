@@ -162,7 +162,7 @@ impl EmbreeScene {
         let config =
             CString::new(format!("threads={threads},set_affinity=0,verbose=0")).expect("no NUL");
         // Per mesh, the quads and the triangles each covers.
-        let quads: Option<Vec<(Vec<[u32; 4]>, Vec<[u32; 2]>)>> = pairings.map(|pairings| {
+        let quads: Option<Vec<MeshQuads>> = pairings.map(|pairings| {
             scene
                 .meshes
                 .iter()
@@ -344,6 +344,9 @@ impl EmbreeScene {
         query.tfar == f32::NEG_INFINITY
     }
 }
+
+/// A mesh's Embree quads, and the two triangles each covers.
+type MeshQuads = (Vec<[u32; 4]>, Vec<[u32; 2]>);
 
 /// Embree's quads of `triangles` paired by `pairing`, with the triangles each covers:
 /// the pair `(v0, v1, v2)`, `(v2, v1, v3)` (rtmesh's quad convention) is Embree's quad

@@ -7,9 +7,8 @@
 
 use crate::LabError;
 use rtmesh::optimize::{OptimizeOptions, Optimized};
-use rtmesh::trace::measure::{with_threads, Traced};
 use rtmesh::trace::run::trace_closest;
-use rtmesh::trace::{NoCounters, RayKind, View, Workload};
+use rtmesh::trace::{NoCounters, RayKind, Workload};
 use rtmesh::Scene;
 use serde::Serialize;
 
@@ -88,7 +87,8 @@ pub fn embree_quads_of(
     settings: &QuadSettings,
 ) -> Result<Vec<QuadRow>, LabError> {
     use crate::embree::EmbreeScene;
-    use rtmesh::trace::measure::median;
+    use rtmesh::trace::measure::{median, with_threads, Traced};
+    use rtmesh::trace::View;
     let pairings: Vec<_> = (0..optimized.scene.meshes.len())
         .map(|g| optimized.pairing(g))
         .collect();

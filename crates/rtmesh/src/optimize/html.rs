@@ -490,7 +490,7 @@ pub fn html(report: &OptimizeReport, header: &Header, pictures_of: Option<&Pictu
         report.triangles_in,
         report.triangles_out,
         100.0 * report.pair_ratio,
-        report.seconds.prepare
+        report.step_seconds.prepare
     );
     out.push_str("<table>\n");
     for (label, value) in [
