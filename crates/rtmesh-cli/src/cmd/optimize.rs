@@ -533,16 +533,8 @@ struct PrimitivePairs {
 fn write_pairs(optimized: &Optimized, path: &Path) -> Result<()> {
     let mut primitives = Vec::new();
     for (g, mesh) in optimized.scene.meshes.iter().enumerate() {
-        let mut by_key: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
-        for t in 0..mesh.triangle_count() {
-            let key = (
-                mesh.group_of(t),
-                mesh.material_ids.get(t).copied().unwrap_or(0),
-            );
-            by_key.entry(key).or_default().push(t as u32);
-        }
         let paired = 2 * optimized.pair_counts[g] as u32;
-        for ((group, material), ids) in by_key {
+        for ((group, material), ids) in mesh.primitives() {
             let local_paired = ids.iter().filter(|&&t| t < paired).count() as u32;
             primitives.push(PrimitivePairs {
                 geometry: g,

@@ -151,7 +151,8 @@ pub fn embree_quads(mesh: &str, scene: &Scene, _: &QuadSettings) -> Result<Vec<Q
 }
 
 /// Share of primary rays whose hit through `before` (the input) and through `after`
-/// (the optimized output, mapped back) is the same input triangle, or both miss.
+/// (the optimized output) is the same input triangle, a tie, or a miss in both
+/// ([`rtmesh::optimize::same_hits`]).
 pub fn same_hits(
     input: &Scene,
     optimized: &Optimized,
@@ -162,23 +163,5 @@ pub fn same_hits(
     let work = Workload::generate(RayKind::Primary, input, before, size.0, size.1, 1);
     let a = trace_closest::<NoCounters>(before, &work.rays).0;
     let b = trace_closest::<NoCounters>(after, &work.rays).0;
-    let same = a
-        .iter()
-        .zip(&b)
-        .filter(|(a, b)| {
-            let source_a = a
-                .is_hit()
-                .then(|| (input.instances[a.instance as usize].mesh as u32, a.triangle));
-            let source_b = b.is_hit().then(|| {
-                let g = optimized.scene.instances[b.instance as usize].mesh;
-                let t = b.triangle as usize;
-                (
-                    optimized.input_geometry[g][t],
-                    optimized.input_triangle[g][t],
-                )
-            });
-            source_a == source_b || (a.is_hit() && b.is_hit() && a.t == b.t)
-        })
-        .count();
-    same as f64 / work.rays.len().max(1) as f64
+    rtmesh::optimize::same_hits(input, optimized, &a, &b).share
 }

@@ -241,6 +241,20 @@ impl TriMesh {
         out
     }
 
+    /// The triangles of each (group, material) key, ascending: the primitives the
+    /// writers write (a glTF primitive, an OBJ `usemtl` run of a group), each in order.
+    pub fn primitives(&self) -> std::collections::BTreeMap<(u32, u32), Vec<u32>> {
+        let mut primitives: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
+        for t in 0..self.triangle_count() {
+            let key = (
+                self.group_of(t),
+                self.material_ids.get(t).copied().unwrap_or(0),
+            );
+            primitives.entry(key).or_default().push(t as u32);
+        }
+        primitives
+    }
+
     /// No triangle is alpha-tested: the geometry may carry DXR's
     /// `D3D12_RAYTRACING_GEOMETRY_FLAG_OPAQUE` (Vulkan `VK_GEOMETRY_OPAQUE_BIT_KHR`),
     /// so that no any-hit shader runs on it.

@@ -8,7 +8,7 @@
 use super::{Figures, Histogram, OptimizeReport, Optimized, RayFigures};
 use crate::bvh::BuildSettings;
 use crate::render::{self, HeatmapMetric, Image};
-use crate::trace::{SceneAccel, View};
+use crate::trace::{LeafBlock, SceneAccel, View};
 use crate::Scene;
 use base64::Engine;
 use serde::Serialize;
@@ -62,28 +62,10 @@ impl Pictures {
                 .map(|g| optimized.pairing(g))
                 .collect();
             let after = SceneAccel::build_paired(&optimized.scene, &pairings, &build);
-            (
-                render::normals(&optimized.scene, &after, view, size),
-                render::work_per_pixel(
-                    &optimized.scene,
-                    &after,
-                    view,
-                    size,
-                    HeatmapMetric::BoxTests,
-                ),
-            )
+            shaded_and_boxes(&optimized.scene, &after, view, size)
         } else {
             let after = SceneAccel::build(&optimized.scene, &build);
-            (
-                render::normals(&optimized.scene, &after, view, size),
-                render::work_per_pixel(
-                    &optimized.scene,
-                    &after,
-                    view,
-                    size,
-                    HeatmapMetric::BoxTests,
-                ),
-            )
+            shaded_and_boxes(&optimized.scene, &after, view, size)
         };
         Self {
             shaded,
@@ -92,6 +74,19 @@ impl Pictures {
             width: size.0,
         }
     }
+}
+
+/// The scene shaded, and its box tests per pixel, through `accel`.
+fn shaded_and_boxes<L: LeafBlock>(
+    scene: &Scene,
+    accel: &SceneAccel<L>,
+    view: View,
+    size: (usize, usize),
+) -> (Image, Vec<u64>) {
+    (
+        render::normals(scene, accel, view, size),
+        render::work_per_pixel(scene, accel, view, size, HeatmapMetric::BoxTests),
+    )
 }
 
 /// Escape text for HTML.

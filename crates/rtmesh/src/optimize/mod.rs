@@ -34,7 +34,7 @@ use crate::repair::{Degenerate, RepairReport, RepairSettings};
 use crate::trace::accel::AccelStats;
 use crate::trace::measure::{BeforeAfter, Traced};
 use crate::trace::run::trace_closest;
-use crate::trace::{LeafBlock, NoCounters, RayKind, SceneAccel, View, Workload};
+use crate::trace::{Hit, LeafBlock, NoCounters, RayKind, SceneAccel, View, Workload};
 use schemars::JsonSchema;
 use serde::Serialize;
 use std::fmt;
@@ -717,15 +717,7 @@ fn first_fit_check(scene: &Scene, pair_counts: &[usize]) -> FirstFitCheck {
     let mut total = 0;
     for (mesh, &pairs) in scene.meshes.iter().zip(pair_counts) {
         total += mesh.triangle_count();
-        let mut primitives: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
-        for t in 0..mesh.triangle_count() {
-            let key = (
-                mesh.group_of(t),
-                mesh.material_ids.get(t).copied().unwrap_or(0),
-            );
-            primitives.entry(key).or_default().push(t as u32);
-        }
-        for ids in primitives.values() {
+        for ids in mesh.primitives().values() {
             let triangles: Vec<[u32; 3]> =
                 ids.iter().map(|&t| mesh.triangles[t as usize]).collect();
             let expected: Vec<[u32; 2]> = ids
@@ -827,6 +819,38 @@ fn geometry_bytes(mesh: &TriMesh) -> usize {
     12 * (mesh.positions.len() + mesh.triangle_count())
 }
 
+/// Compare the hits of the same rays through `input` (`before`) and through
+/// `optimized`'s scene (`after`, any tracer of it), by the input triangle each came
+/// from; another triangle at the same distance (to 1e-6 relative) is a tie.
+pub fn same_hits(input: &Scene, optimized: &Optimized, before: &[Hit], after: &[Hit]) -> SameHits {
+    let mut same = SameHits {
+        rays: before.len(),
+        ..SameHits::default()
+    };
+    for (b, a) in before.iter().zip(after) {
+        let source_before = b
+            .is_hit()
+            .then(|| (input.instances[b.instance as usize].mesh as u32, b.triangle));
+        let source_after = a.is_hit().then(|| {
+            let g = optimized.scene.instances[a.instance as usize].mesh;
+            let t = a.triangle as usize;
+            (
+                optimized.input_geometry[g][t],
+                optimized.input_triangle[g][t],
+            )
+        });
+        if source_before == source_after {
+            same.same += 1;
+        } else if b.is_hit() && a.is_hit() && (a.t - b.t).abs() <= 1e-6 * b.t.abs().max(1.0) {
+            same.ties += 1;
+        } else {
+            same.different += 1;
+        }
+    }
+    same.share = (same.same + same.ties) as f64 / same.rays.max(1) as f64;
+    same
+}
+
 /// Trace the input and the output alike: the figures of both, and the same-hits check
 /// of the primary rays through the map back to input triangles.
 fn compare<L: LeafBlock>(
@@ -891,30 +915,6 @@ fn compare<L: LeafBlock>(
     );
     let hits_before = trace_closest::<NoCounters>(before, &work.rays).0;
     let hits_after = trace_closest::<NoCounters>(after, &work.rays).0;
-    let mut same = SameHits {
-        rays: work.rays.len(),
-        ..SameHits::default()
-    };
-    for (b, a) in hits_before.iter().zip(&hits_after) {
-        let source_before = b
-            .is_hit()
-            .then(|| (input.instances[b.instance as usize].mesh as u32, b.triangle));
-        let source_after = a.is_hit().then(|| {
-            let g = optimized.scene.instances[a.instance as usize].mesh;
-            let t = a.triangle as usize;
-            (
-                optimized.input_geometry[g][t],
-                optimized.input_triangle[g][t],
-            )
-        });
-        if source_before == source_after {
-            same.same += 1;
-        } else if b.is_hit() && a.is_hit() && (a.t - b.t).abs() <= 1e-6 * b.t.abs().max(1.0) {
-            same.ties += 1;
-        } else {
-            same.different += 1;
-        }
-    }
-    same.share = (same.same + same.ties) as f64 / same.rays.max(1) as f64;
+    let same = same_hits(input, optimized, &hits_before, &hits_after);
     (before_figures, after_figures, same)
 }
