@@ -524,3 +524,70 @@ fn failed_runs_exit_one_with_the_reason() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("--features embree"));
     }
 }
+
+#[test]
+fn cluster_and_dynamic_keys() {
+    let clusters = assert_keys(
+        &["cluster", "builtin:blob", "--json"],
+        &[
+            "mesh",
+            "method",
+            "triangles",
+            "clusters",
+            "mean_triangles",
+            "mean_vertices_per_triangle",
+            "bytes",
+            "indexed_bytes",
+            "disconnected",
+            "seconds",
+        ],
+    );
+    assert_eq!(clusters[0]["triangles"], 99892);
+    for build in ["rebuild", "refit", "clusters"] {
+        let dynamic = assert_keys(
+            &[
+                "dynamic",
+                "builtin:blob",
+                "--motion",
+                "twist",
+                "--frames",
+                "3",
+                "--build",
+                build,
+                "--size",
+                "32x32",
+                "--runs",
+                "1",
+                "--json",
+            ],
+            &[
+                "mesh",
+                "motion",
+                "build",
+                "ray_kind",
+                "triangles",
+                "clusters",
+                "precompute_ms",
+                "frames",
+                "total",
+            ],
+        );
+        let frames = dynamic[0]["frames"].as_array().unwrap();
+        assert_eq!(frames.len(), 3);
+        for key in [
+            "frame",
+            "build_ms",
+            "trace_ms",
+            "mrays_per_s",
+            "box_tests_per_ray",
+            "tri_tests_per_ray",
+            "sah_cost",
+            "hit_checksum",
+        ] {
+            assert!(frames[0].get(key).is_some(), "{build}: {key}");
+        }
+    }
+    let unbuilt = rtmesh(&["cluster", "builtin:blob", "--method", "contract"]);
+    assert_eq!(unbuilt.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&unbuilt.stderr).contains("only grow is built"));
+}

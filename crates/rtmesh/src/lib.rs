@@ -49,7 +49,9 @@
 #![warn(missing_docs)]
 
 pub mod analysis;
+pub mod animate;
 pub mod bvh;
+pub mod cluster;
 pub mod data;
 pub mod geom;
 pub mod io;

@@ -2,8 +2,10 @@
 //! and builds a typed report, and the text printing of that report.
 
 pub mod bench;
+pub mod cluster;
 pub mod convert;
 pub mod demo;
+pub mod dynamic;
 pub mod info;
 pub mod lint;
 pub mod optimize;
@@ -43,6 +45,8 @@ enum Command {
     Trace(trace::Args),
     Render(render::Args),
     Bench(bench::Args),
+    Cluster(cluster::Args),
+    Dynamic(dynamic::Args),
     Demo(demo::Args),
 }
 
@@ -61,6 +65,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Trace(args) => trace::run(args),
         Command::Render(args) => render::run(args),
         Command::Bench(args) => bench::run(args),
+        Command::Cluster(args) => cluster::run(args),
+        Command::Dynamic(args) => dynamic::run(args),
         Command::Demo(args) => demo::run(args),
     }
 }

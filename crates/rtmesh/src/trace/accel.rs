@@ -174,6 +174,22 @@ impl SceneAccel<Pair4> {
 }
 
 impl<L: LeafBlock> SceneAccel<L> {
+    /// The scene of one untransformed mesh of `triangle_count` triangles, from its BVH
+    /// (built by another builder, such as the per-frame one over clusters), timed from
+    /// `start`.
+    pub(crate) fn from_single_blas(
+        blas: Bvh<L>,
+        triangle_count: usize,
+        start: std::time::Instant,
+    ) -> Self {
+        Self {
+            blas: vec![blas],
+            tlas: None,
+            build_seconds: start.elapsed().as_secs_f64(),
+            triangle_count,
+        }
+    }
+
     /// Add the TLAS (when the scene needs one) over built BLASes.
     fn assemble(
         scene: &Scene,

@@ -1,0 +1,100 @@
+//! `rtmesh cluster`: precomputed triangle clusters (Garanzha 2009) of a mesh.
+
+use crate::args::load;
+use crate::output::emit;
+use anyhow::{bail, Result};
+use rtmesh::cluster::{grow, ClusterReport, ClusterSettings};
+use serde::Serialize;
+
+/// Group a mesh's triangles into clusters for animated meshes: connected, disk-like,
+/// compact sets of at most --max-count triangles on at most 256 vertices, grown one
+/// neighbour at a time by the acceptance heuristic Acc(k) (the formula is in
+/// crates/rtmesh/src/cluster/mod.rs), stored as u8 indices into each cluster's vertex
+/// list. Every frame, `rtmesh dynamic --build clusters` then recomputes only the
+/// clusters' boxes and builds a BVH over them.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mesh file, or builtin:NAME.
+    mesh: String,
+    /// grow (iterative growing). contract and meshopt are not built yet.
+    #[arg(long, default_value = "grow")]
+    method: String,
+    /// MaxCount: most triangles per cluster (1..=60).
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=60))]
+    max_count: u32,
+    /// MaxSize: the cluster's bounding radius may reach this times the radius of a disk
+    /// of its expected area.
+    #[arg(long, default_value_t = 2.0)]
+    max_size: f32,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+/// The settings `cluster` and `dynamic` share.
+pub fn settings(method: &str, max_count: u32, max_size: f32) -> Result<ClusterSettings> {
+    if method != "grow" {
+        bail!("unknown or unbuilt clustering method `{method}`: only grow is built (contract and meshopt are not yet)");
+    }
+    Ok(ClusterSettings {
+        max_triangles: max_count as usize,
+        max_size,
+        ..ClusterSettings::default()
+    })
+}
+
+/// What `cluster` made.
+#[derive(Serialize)]
+pub struct Report {
+    mesh: String,
+    method: String,
+    #[serde(flatten)]
+    clusters: ClusterReport,
+}
+
+/// Cluster every geometry (their figures summed) and report.
+pub fn run(args: Args) -> Result<()> {
+    let settings = settings(&args.method, args.max_count, args.max_size)?;
+    let scene = load(&args.mesh)?;
+    let start = std::time::Instant::now();
+    let all: Vec<_> = scene.meshes.iter().map(|m| grow(m, &settings)).collect();
+    let seconds = start.elapsed().as_secs_f64();
+    let mut total = ClusterReport::of(&Default::default(), seconds);
+    for clusters in &all {
+        let r = ClusterReport::of(clusters, 0.0);
+        total.triangles += r.triangles;
+        total.clusters += r.clusters;
+        total.bytes += r.bytes;
+        total.indexed_bytes += r.indexed_bytes;
+    }
+    let vertices: usize = all.iter().map(|c| c.vertices.len()).sum();
+    total.mean_triangles = total.triangles as f64 / total.clusters.max(1) as f64;
+    total.mean_vertices_per_triangle = vertices as f64 / total.triangles.max(1) as f64;
+    let report = Report {
+        mesh: args.mesh,
+        method: args.method,
+        clusters: total,
+    };
+    emit(&report, args.json, |r| {
+        let c = &r.clusters;
+        println!(
+            "{}: {} triangles in {} clusters by {} in {:.3} s ({:.3} µs per triangle)",
+            r.mesh,
+            c.triangles,
+            c.clusters,
+            r.method,
+            c.seconds,
+            1e6 * c.seconds / c.triangles.max(1) as f64
+        );
+        println!(
+            "  per cluster  {:.1} triangles, {:.3} vertices per triangle",
+            c.mean_triangles, c.mean_vertices_per_triangle
+        );
+        println!(
+            "  storage      {} bytes ({:.2} per triangle) against {} as u32 triangles",
+            c.bytes,
+            c.bytes as f64 / c.triangles.max(1) as f64,
+            c.indexed_bytes
+        );
+    })
+}

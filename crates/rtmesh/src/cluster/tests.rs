@@ -1,0 +1,113 @@
+use super::*;
+use crate::animate::{Animation, Motion};
+use crate::trace::run::trace_closest;
+use crate::trace::{NoCounters, RayKind, Workload};
+use crate::Scene;
+
+/// Every triangle in exactly one cluster, with its corners and winding; clusters within
+/// their limits and connected through shared edges.
+fn assert_valid(mesh: &TriMesh, clusters: &Clusters, settings: &ClusterSettings) {
+    let mut seen = vec![false; mesh.triangle_count()];
+    let topology = mesh.topology();
+    for c in 0..clusters.len() {
+        let range = clusters.triangles_of(c);
+        assert!(!range.is_empty() && range.len() <= settings.max_triangles);
+        assert!(clusters.vertices_of(c).len() <= settings.max_vertices);
+        for i in range.clone() {
+            let t = clusters.input_triangle[i] as usize;
+            assert!(!std::mem::replace(&mut seen[t], true), "triangle {t} twice");
+            assert_eq!(clusters.triangle(c, i), mesh.triangles[t], "winding kept");
+        }
+        // Connected: a walk over shared position edges reaches every triangle.
+        let ids: Vec<u32> = range.map(|i| clusters.input_triangle[i]).collect();
+        let mut reached = vec![ids[0]];
+        let mut grew = true;
+        while grew {
+            grew = false;
+            for &t in &ids {
+                if reached.contains(&t) {
+                    continue;
+                }
+                let shares = reached.iter().any(|&r| {
+                    let a = topology.triangles[r as usize];
+                    topology.triangles[t as usize]
+                        .iter()
+                        .filter(|v| a.contains(v))
+                        .count()
+                        >= 2
+                });
+                if shares {
+                    reached.push(t);
+                    grew = true;
+                }
+            }
+        }
+        assert_eq!(reached.len(), ids.len(), "cluster {c} is connected");
+    }
+    assert!(seen.iter().all(|&s| s), "every triangle clustered");
+}
+
+#[test]
+fn grid_clusters_are_valid_compact_and_small() {
+    let mesh = crate::scenes::quad_grid(40);
+    let settings = ClusterSettings::default();
+    let clusters = grow(&mesh, &settings);
+    assert_valid(&mesh, &clusters, &settings);
+    let report = ClusterReport::of(&clusters, 0.0);
+    assert!(report.mean_triangles > 20.0, "{report:?}");
+    assert!(report.mean_vertices_per_triangle < 0.85, "{report:?}");
+    assert!(report.bytes < report.indexed_bytes + 4 * report.triangles);
+}
+
+#[test]
+fn disconnected_and_non_manifold_meshes_cluster_validly() {
+    let mut mesh = crate::scenes::quad_grid(6);
+    // A second copy far away, and a fin on one edge (three triangles on an edge).
+    let n = mesh.positions.len() as u32;
+    let copy: Vec<Vec3> = mesh
+        .positions
+        .iter()
+        .map(|p| *p + Vec3::new(100.0, 0.0, 0.0))
+        .collect();
+    mesh.positions.extend(copy);
+    let copies: Vec<[u32; 3]> = mesh.triangles.iter().map(|t| t.map(|v| v + n)).collect();
+    mesh.triangles.extend(copies);
+    mesh.positions.push(Vec3::new(0.5, 0.0, 3.0));
+    let fin = mesh.positions.len() as u32 - 1;
+    mesh.triangles.push([0, 1, fin]);
+    let mesh = TriMesh::new(mesh.positions, mesh.triangles);
+    let settings = ClusterSettings {
+        max_triangles: 8,
+        ..ClusterSettings::default()
+    };
+    let clusters = grow(&mesh, &settings);
+    assert_valid(&mesh, &clusters, &settings);
+}
+
+#[test]
+fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
+    let mesh = crate::scenes::scan_blob(20_000, 3);
+    let clusters = grow(&mesh, &ClusterSettings::default());
+    for motion in [Motion::Twist, Motion::Explode, Motion::Wave, Motion::Bend] {
+        let animation = Animation::new(&mesh, motion);
+        for phase in [0.0, 0.5, 1.0] {
+            let mut frame = mesh.clone();
+            frame.positions = animation.positions(phase);
+            let scene = Scene::from_mesh(frame.clone());
+            let rebuilt = SceneAccel::build(&scene, &BuildSettings::default());
+            let over_clusters = ClusterAccel::build(&frame, &clusters);
+            crate::bvh::Bvh::validate(&over_clusters.blas[0]).unwrap();
+            for kind in [RayKind::Primary, RayKind::Diffuse] {
+                let work = Workload::generate(kind, &scene, &rebuilt, 64, 64, 1);
+                let a = trace_closest::<NoCounters>(&rebuilt, &work.rays).0;
+                let b = trace_closest::<NoCounters>(&over_clusters, &work.rays).0;
+                let same = a
+                    .iter()
+                    .zip(&b)
+                    .filter(|(x, y)| x.triangle == y.triangle || x.t == y.t)
+                    .count();
+                assert_eq!(same, a.len(), "{motion:?} at {phase}: {kind:?}");
+            }
+        }
+    }
+}
