@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use clap::ValueEnum;
 use rtmesh::animate::{Animation, Motion};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::cluster::{grow, ClusterAccel};
+use rtmesh::cluster::{grow, ClusterAccel, Inside};
 use rtmesh::progress::Progress;
 use rtmesh::trace::measure::measure;
 use rtmesh::trace::{RayKind, SceneAccel, Workload};
@@ -24,6 +24,15 @@ pub enum Build {
     Refit,
     /// A BVH over the boxes of clusters found once on frame 0 (`rtmesh cluster`).
     Clusters,
+}
+
+/// What a cluster is inside the per-frame BVH.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum InsideArg {
+    /// One leaf of all its triangles.
+    Flat,
+    /// An 8-wide node over its 4-triangle blocks.
+    Node,
 }
 
 /// Animate a mesh and trace every frame: build ms, trace ms, Mrays/s, box and triangle
@@ -55,6 +64,11 @@ pub struct Args {
     /// MaxCount: most triangles per cluster (1..=60).
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=60))]
     max_count: u32,
+    /// With --build clusters: flat (one leaf of all a cluster's triangles, as the
+    /// slides) or node (an 8-wide node over the cluster's 4-triangle blocks, refitted
+    /// each frame).
+    #[arg(long, value_enum, default_value = "node")]
+    inside: InsideArg,
     /// Which rays (primary or diffuse).
     #[arg(long, value_enum, default_value = "primary")]
     rays: Rays,
@@ -146,6 +160,10 @@ pub fn run(args: Args) -> Result<()> {
             Build::Clusters => ClusterAccel::build(
                 &frame_scene.meshes[0],
                 clusters.as_ref().expect("clusters were found"),
+                match args.inside {
+                    InsideArg::Flat => Inside::Flat,
+                    InsideArg::Node => Inside::Node,
+                },
             ),
         };
         let build_ms = 1e3 * start.elapsed().as_secs_f64();

@@ -36,8 +36,9 @@
 //!
 //! **Per frame** ([`ClusterAccel::build`]): each cluster's box from the animated
 //! positions, a binned-SAH BVH over the cluster boxes (one cluster per leaf), and the
-//! leaf's triangles packed into the tracer's 4-wide blocks; no hierarchy inside a
-//! cluster, as in the slides.
+//! leaf's triangles packed into the tracer's 4-wide blocks in growing order: one flat
+//! leaf, as in the slides ([`Inside::Flat`]), or one 8-wide node over the blocks whose
+//! boxes the frame's refit sets ([`Inside::Node`]).
 //!
 //! Cost: growing is O(T · F) for F candidates on a cluster's frontier (tens); a frame is
 //! O(T) for the boxes and triangle blocks plus a build over T / |k| boxes.
@@ -454,14 +455,27 @@ impl Primitive for ClusterBox {
     }
 }
 
+/// What a cluster is inside the per-frame BVH.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Inside {
+    /// One leaf of all its triangle blocks, as the slides keep no branches inside a
+    /// cluster: every ray that reaches it tests all its triangles.
+    Flat,
+    /// One 8-wide node over its blocks (at most 8: MaxCount 32), each block a leaf
+    /// with its own box: a fixed hierarchy inside the cluster, refitted every frame.
+    Node,
+}
+
 /// The per-frame build over cluster boxes.
 pub struct ClusterAccel;
 
 impl ClusterAccel {
     /// Build the tracer's scene for `mesh` (its current positions) from `clusters`:
     /// every cluster's box, a binned-SAH BVH over the boxes with one cluster per leaf,
-    /// and each leaf's triangles in 4-wide blocks (hits name `mesh`'s triangle ids).
-    pub fn build(mesh: &TriMesh, clusters: &Clusters) -> SceneAccel {
+    /// and each leaf's triangles in 4-wide blocks (hits name `mesh`'s triangle ids),
+    /// arranged as `inside` says.
+    pub fn build(mesh: &TriMesh, clusters: &Clusters, inside: Inside) -> SceneAccel {
         let start = std::time::Instant::now();
         let boxes: Vec<ClusterBox> = (0..clusters.len())
             .into_par_iter()
@@ -499,22 +513,43 @@ impl ClusterAccel {
             first.push(primitives.len() as u32);
             primitives.extend_from_slice(blocks);
         }
-        let remap = |reference: u32| match Child::decode(reference) {
-            Child::Leaf { first: leaf, .. } => Child::Leaf {
-                first: first[leaf as usize],
-                count: leaves[leaf as usize].len() as u32,
-            }
-            .encode(),
-            _ => reference,
-        };
         let mut nodes = over_boxes.nodes;
-        for node in &mut nodes {
-            for child in &mut node.children {
-                *child = remap(*child);
+        // A cluster becomes a leaf of all its blocks (`Inside::Flat`), or a node whose
+        // children are its blocks, one leaf each (`Inside::Node`; refit sets the boxes).
+        let remap =
+            |reference: u32, nodes: &mut Vec<crate::bvh::BvhNode>| match Child::decode(reference) {
+                Child::Leaf { first: leaf, .. } => {
+                    let (start, count) = (first[leaf as usize], leaves[leaf as usize].len() as u32);
+                    if inside == Inside::Flat || count == 1 {
+                        return Child::Leaf {
+                            first: start,
+                            count,
+                        }
+                        .encode();
+                    }
+                    let mut node = crate::bvh::BvhNode::EMPTY;
+                    for k in 0..count {
+                        node.children[k as usize] = Child::Leaf {
+                            first: start + k,
+                            count: 1,
+                        }
+                        .encode();
+                    }
+                    nodes.push(node);
+                    Child::Inner(nodes.len() as u32 - 1).encode()
+                }
+                _ => reference,
+            };
+        let inner = nodes.len();
+        for n in 0..inner {
+            for lane in 0..crate::bvh::WIDTH {
+                let child = nodes[n].children[lane];
+                nodes[n].children[lane] = remap(child, &mut nodes);
             }
         }
+        let root = remap(over_boxes.root, &mut nodes);
         let mut bvh = Bvh {
-            root: remap(over_boxes.root),
+            root,
             nodes,
             primitives,
             build_seconds: 0.0,

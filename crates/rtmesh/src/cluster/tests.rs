@@ -95,18 +95,20 @@ fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
             frame.positions = animation.positions(phase);
             let scene = Scene::from_mesh(frame.clone());
             let rebuilt = SceneAccel::build(&scene, &BuildSettings::default());
-            let over_clusters = ClusterAccel::build(&frame, &clusters);
-            crate::bvh::Bvh::validate(&over_clusters.blas[0]).unwrap();
-            for kind in [RayKind::Primary, RayKind::Diffuse] {
-                let work = Workload::generate(kind, &scene, &rebuilt, 64, 64, 1);
-                let a = trace_closest::<NoCounters>(&rebuilt, &work.rays).0;
-                let b = trace_closest::<NoCounters>(&over_clusters, &work.rays).0;
-                let same = a
-                    .iter()
-                    .zip(&b)
-                    .filter(|(x, y)| x.triangle == y.triangle || x.t == y.t)
-                    .count();
-                assert_eq!(same, a.len(), "{motion:?} at {phase}: {kind:?}");
+            for inside in [Inside::Flat, Inside::Node] {
+                let over_clusters = ClusterAccel::build(&frame, &clusters, inside);
+                crate::bvh::Bvh::validate(&over_clusters.blas[0]).unwrap();
+                for kind in [RayKind::Primary, RayKind::Diffuse] {
+                    let work = Workload::generate(kind, &scene, &rebuilt, 64, 64, 1);
+                    let a = trace_closest::<NoCounters>(&rebuilt, &work.rays).0;
+                    let b = trace_closest::<NoCounters>(&over_clusters, &work.rays).0;
+                    let same = a
+                        .iter()
+                        .zip(&b)
+                        .filter(|(x, y)| x.triangle == y.triangle || x.t == y.t)
+                        .count();
+                    assert_eq!(same, a.len(), "{motion:?} at {phase}: {kind:?} {inside:?}");
+                }
             }
         }
     }
