@@ -462,8 +462,9 @@ pub enum Inside {
     /// One leaf of all its triangle blocks, as the slides keep no branches inside a
     /// cluster: every ray that reaches it tests all its triangles.
     Flat,
-    /// One 8-wide node over its blocks (at most 8: MaxCount 32), each block a leaf
-    /// with its own box: a fixed hierarchy inside the cluster, refitted every frame.
+    /// One 8-wide node over its blocks, each block (two for clusters of over 32
+    /// triangles) a leaf with its own box: a fixed hierarchy inside the cluster,
+    /// refitted every frame.
     Node,
 }
 
@@ -527,11 +528,14 @@ impl ClusterAccel {
                         }
                         .encode();
                     }
+                    // Up to 8 children of ⌈count / 8⌉ blocks each (one block each
+                    // for MaxCount ≤ 32, two for up to 60 triangles).
+                    let per = count.div_ceil(crate::bvh::WIDTH as u32);
                     let mut node = crate::bvh::BvhNode::EMPTY;
-                    for k in 0..count {
-                        node.children[k as usize] = Child::Leaf {
+                    for (lane, k) in (0..count).step_by(per as usize).enumerate() {
+                        node.children[lane] = Child::Leaf {
                             first: start + k,
-                            count: 1,
+                            count: per.min(count - k),
                         }
                         .encode();
                     }

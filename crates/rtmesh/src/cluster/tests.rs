@@ -87,16 +87,27 @@ fn disconnected_and_non_manifold_meshes_cluster_validly() {
 #[test]
 fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
     let mesh = crate::scenes::scan_blob(20_000, 3);
-    let clusters = grow(&mesh, &ClusterSettings::default());
+    for max_triangles in [8, 32, 60] {
+        let settings = ClusterSettings {
+            max_triangles,
+            ..ClusterSettings::default()
+        };
+        check_frames(&mesh, &grow(&mesh, &settings));
+    }
+}
+
+/// Every motion at three phases: the cluster BVH, flat and with nodes, hits what a
+/// rebuild hits.
+fn check_frames(mesh: &TriMesh, clusters: &Clusters) {
     for motion in [Motion::Twist, Motion::Explode, Motion::Wave, Motion::Bend] {
-        let animation = Animation::new(&mesh, motion);
+        let animation = Animation::new(mesh, motion);
         for phase in [0.0, 0.5, 1.0] {
             let mut frame = mesh.clone();
             frame.positions = animation.positions(phase);
             let scene = Scene::from_mesh(frame.clone());
             let rebuilt = SceneAccel::build(&scene, &BuildSettings::default());
             for inside in [Inside::Flat, Inside::Node] {
-                let over_clusters = ClusterAccel::build(&frame, &clusters, inside);
+                let over_clusters = ClusterAccel::build(&frame, clusters, inside);
                 crate::bvh::Bvh::validate(&over_clusters.blas[0]).unwrap();
                 for kind in [RayKind::Primary, RayKind::Diffuse] {
                     let work = Workload::generate(kind, &scene, &rebuilt, 64, 64, 1);
