@@ -73,9 +73,7 @@ fn embree_quads_hit_the_same_triangles_in_fewer_bytes() {
             ..OptimizeOptions::default()
         };
         let optimized = rtmesh::optimize::optimize_mapped(&scene, &options, &()).unwrap();
-        let pairings: Vec<_> = (0..optimized.scene.meshes.len())
-            .map(|g| optimized.pairing(g))
-            .collect();
+        let pairings = optimized.pairings();
         let triangles = EmbreeScene::build(&scene, 0).unwrap();
         let quads = EmbreeScene::build_quads(&optimized.scene, &pairings, 0).unwrap();
         let same = same_hits(&scene, &optimized, &triangles, &quads, (96, 96));

@@ -1,7 +1,7 @@
 //! `rtmesh optimize`: the main job, for one file or a whole library.
 
 use crate::args::{load, parse_size_or_zero, CameraArg};
-use crate::output::{steps_bar, write_mesh};
+use crate::output::{json_line, steps_bar, write_mesh};
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use rtmesh::optimize::html::{Header, Pictures};
@@ -144,19 +144,10 @@ pub struct FileReport {
     error: Option<String>,
     /// Wall-clock seconds for this file, reading and writing included.
     seconds: f64,
-    /// The library's report (with its own `rtmesh_version` and `schema`).
+    /// The library's report (with its own `rtmesh_version` and `schema`; a failed
+    /// file's line is stamped like every other report).
     #[serde(flatten)]
     optimize: Option<OptimizeReport>,
-    /// `rtmesh_version` and `schema` of a line without the library's report.
-    #[serde(flatten)]
-    stamp: Option<Stamp>,
-}
-
-/// The version keys of a failed file's line.
-#[derive(Serialize)]
-struct Stamp {
-    rtmesh_version: &'static str,
-    schema: u32,
 }
 
 /// Optimize every input.
@@ -307,10 +298,11 @@ pub fn run_jobs(jobs: &[Job], settings: &Settings, index: Option<&Path>) -> Resu
                 eprintln!("error: {error}");
             }
             if settings.json {
-                println!(
-                    "{}",
-                    serde_json::to_string(report).expect("reports are plain data")
-                );
+                let line = match report.optimize {
+                    Some(_) => serde_json::to_string(report).expect("reports are plain data"),
+                    None => json_line(report),
+                };
+                println!("{line}");
             } else if jobs.len() == 1 {
                 print_one(report);
             } else {
@@ -384,7 +376,6 @@ fn run_job(job: &Job, settings: &Settings, progress: &dyn Progress) -> FileRepor
         error: None,
         seconds: 0.0,
         optimize: None,
-        stamp: None,
     };
     if let Err(error) = optimize_file(job, settings, progress, &mut report) {
         // Every message names the input file.
@@ -393,10 +384,6 @@ fn run_job(job: &Job, settings: &Settings, progress: &dyn Progress) -> FileRepor
             message
         } else {
             format!("{}: {message}", job.input)
-        });
-        report.stamp = Some(Stamp {
-            rtmesh_version: env!("CARGO_PKG_VERSION"),
-            schema: rtmesh::optimize::SCHEMA,
         });
     } else {
         report.ok = true;

@@ -89,9 +89,7 @@ pub fn embree_quads_of(
     use crate::embree::EmbreeScene;
     use rtmesh::trace::measure::{median, with_threads, Traced};
     use rtmesh::trace::View;
-    let pairings: Vec<_> = (0..optimized.scene.meshes.len())
-        .map(|g| optimized.pairing(g))
-        .collect();
+    let pairings = optimized.pairings();
     let mut rows = Vec::new();
     for &threads in &settings.thread_counts {
         let built = with_threads(threads, || -> Result<Vec<QuadRow>, LabError> {

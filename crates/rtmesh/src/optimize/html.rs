@@ -58,9 +58,7 @@ impl Pictures {
             render::work_per_pixel(input, &before, view, size, HeatmapMetric::BoxTests);
         let pairs = optimized.pair_counts.iter().any(|&k| k > 0);
         let (shaded, boxes_after) = if pairs {
-            let pairings: Vec<_> = (0..optimized.scene.meshes.len())
-                .map(|g| optimized.pairing(g))
-                .collect();
+            let pairings = optimized.pairings();
             let after = SceneAccel::build_paired(&optimized.scene, &pairings, &build);
             shaded_and_boxes(&optimized.scene, &after, view, size)
         } else {

@@ -419,6 +419,13 @@ impl Optimized {
     pub fn pairing(&self, g: usize) -> Pairing {
         consecutive_pairs(self.scene.meshes[g].triangle_count(), self.pair_counts[g])
     }
+
+    /// [`Self::pairing`] of every output geometry, for [`SceneAccel::build_paired`].
+    pub fn pairings(&self) -> Vec<Pairing> {
+        (0..self.scene.meshes.len())
+            .map(|g| self.pairing(g))
+            .collect()
+    }
 }
 
 /// The pairing `(0, 1), (2, 3), …` of the first `pairs` couples of `triangles`.
@@ -507,23 +514,23 @@ pub fn optimize_mapped(
     let mut map = map;
     let (pairing, pair_counts) = match options.target {
         Target::Pairs => {
-            let (choice, counts) = pair_for_hardware(&mut out, &mut map, options);
-            (Some(choice), counts)
+            let (choice, vertices_copied, counts) = pair_for_hardware(&mut out, &mut map, options);
+            (Some((choice, vertices_copied)), counts)
         }
         _ => (None, vec![0; out.meshes.len()]),
     };
     seconds.target = clock.elapsed().as_secs_f64();
     seconds.prepare = lint_and_repair + seconds.target;
     progress.advance(1);
-    let mut pairing = pairing;
-    if let Some(choice) = &mut pairing {
+    let pairing = pairing.map(|(mut choice, vertices_copied)| {
         let clock = std::time::Instant::now();
         choice.first_fit = FirstFitCheck {
-            vertices_copied: choice.first_fit.vertices_copied,
+            vertices_copied,
             ..first_fit_check(&out, &pair_counts)
         };
         seconds.check = clock.elapsed().as_secs_f64();
-    }
+        choice
+    });
 
     let triangles_out: usize = out.meshes.iter().map(TriMesh::triangle_count).sum();
     let paired: usize = pair_counts.iter().map(|&k| 2 * k).sum();
@@ -555,38 +562,38 @@ pub fn optimize_mapped(
         pair_counts,
     };
     optimized.report.histograms = histograms(&optimized);
+    // The output's BVH is the one its target traces: pair leaves for pairs.
     let build = BuildSettings::default();
-    let after_triangles = SceneAccel::build(&optimized.scene, &build);
-    let after_pairs = (options.target == Target::Pairs).then(|| {
-        let pairings: Vec<Pairing> = (0..optimized.scene.meshes.len())
-            .map(|g| optimized.pairing(g))
-            .collect();
-        SceneAccel::build_paired(&optimized.scene, &pairings, &build)
-    });
-    optimized.report.geometries = match &after_pairs {
-        Some(accel) => geometry_rows(&optimized.scene, accel),
-        None => geometry_rows(&optimized.scene, &after_triangles),
-    };
+    if options.target == Target::Pairs {
+        let after = SceneAccel::build_paired(&optimized.scene, &optimized.pairings(), &build);
+        measure_output(scene, &mut optimized, &after, options, progress);
+    } else {
+        let after = SceneAccel::build(&optimized.scene, &build);
+        measure_output(scene, &mut optimized, &after, options, progress);
+    }
+    Ok(optimized)
+}
+
+/// The per-geometry rows of the output's BVH `after`, and with `options.measure` the
+/// before/after figures and same hits.
+fn measure_output<L: LeafBlock>(
+    input: &Scene,
+    optimized: &mut Optimized,
+    after: &SceneAccel<L>,
+    options: &OptimizeOptions,
+    progress: &dyn Progress,
+) {
+    optimized.report.geometries = geometry_rows(&optimized.scene, after);
     if let Some(measure) = &options.measure {
         let clock = std::time::Instant::now();
-        let before = SceneAccel::build(scene, &build);
-        let (figures_before, figures_after, same) = match &after_pairs {
-            Some(after) => compare(scene, &before, &optimized, after, measure, progress),
-            None => compare(
-                scene,
-                &before,
-                &optimized,
-                &after_triangles,
-                measure,
-                progress,
-            ),
-        };
+        let before = SceneAccel::build(input, &BuildSettings::default());
+        let (figures_before, figures_after, same) =
+            compare(input, &before, optimized, after, measure, progress);
         optimized.report.before = Some(figures_before);
         optimized.report.after = Some(figures_after);
         optimized.report.same_hits = Some(same);
         optimized.report.step_seconds.measure = clock.elapsed().as_secs_f64();
     }
-    Ok(optimized)
 }
 
 /// Triangles a ray can hit: indices in range, finite corners, non-zero area.
@@ -601,12 +608,13 @@ fn traceable_triangles(mesh: &TriMesh) -> usize {
 
 /// Pair every geometry of `scene` by vertex index with the best candidate, reorder it
 /// (pairs first) and separate unpaired triangles that share an edge by index; updates
-/// the map to the input. Returns the choice and each geometry's pair count.
+/// the map to the input. Returns the choice (its first-fit check is the caller's), the
+/// vertices copied, and each geometry's pair count.
 fn pair_for_hardware(
     scene: &mut Scene,
     map: &mut RepairMap,
     options: &OptimizeOptions,
-) -> (PairingChoice, Vec<usize>) {
+) -> (PairingChoice, usize, Vec<usize>) {
     let fixed = options.pair_method.map(|method| PairSettings {
         method,
         prescan_threshold: None,
@@ -665,10 +673,6 @@ fn pair_for_hardware(
         Some(_) => "mixed".to_owned(),
         None => names[0].clone(),
     };
-    let first_fit = FirstFitCheck {
-        vertices_copied,
-        ..FirstFitCheck::default()
-    };
     let choice = PairingChoice {
         method,
         candidates: names
@@ -679,9 +683,9 @@ fn pair_for_hardware(
                 pair_ratio: paired as f64 / total.max(1) as f64,
             })
             .collect(),
-        first_fit,
+        first_fit: FirstFitCheck::default(),
     };
-    (choice, pair_counts)
+    (choice, vertices_copied, pair_counts)
 }
 
 /// Give every unpaired triangle (from `2 · pair_count` on) that shares an edge by vertex
