@@ -66,6 +66,7 @@ pub mod render;
 pub mod repair;
 pub mod scenes;
 pub mod simd;
+pub mod strip;
 pub mod trace;
 
 pub use geom::{Aabb, Ray};

@@ -12,6 +12,7 @@ pub mod optimize;
 pub mod pair;
 pub mod render;
 pub mod repair;
+pub mod strip;
 pub mod trace;
 
 use anyhow::Result;
@@ -46,6 +47,7 @@ enum Command {
     Render(render::Args),
     Bench(bench::Args),
     Cluster(cluster::Args),
+    Strip(strip::Args),
     Dynamic(dynamic::Args),
     Demo(demo::Args),
 }
@@ -66,6 +68,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Render(args) => render::run(args),
         Command::Bench(args) => bench::run(args),
         Command::Cluster(args) => cluster::run(args),
+        Command::Strip(args) => strip::run(args),
         Command::Dynamic(args) => dynamic::run(args),
         Command::Demo(args) => demo::run(args),
     }

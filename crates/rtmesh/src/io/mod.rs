@@ -19,7 +19,7 @@ mod stl;
 pub use gltf::GltfDocument;
 pub use reference::MAX_REFERENCED_BYTES;
 
-use crate::mesh::Scene;
+use crate::mesh::{Scene, TriMesh};
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
@@ -261,6 +261,13 @@ pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
         }
     }
     Ok(notes)
+}
+
+/// Write `mesh` as a binary PLY whose triangles are one `tristrips` element: the
+/// rasterization strips `strips` (vertex indices, as [`crate::strip::Strips::to_standard`]
+/// gives), joined by −1 restarts. Vertex attributes are written as [`write`] does.
+pub fn write_ply_strips(mesh: &TriMesh, strips: &[Vec<u32>], path: &Path) -> Result<(), MeshError> {
+    ply::write_strips(mesh, strips, path).map_err(|e| MeshError::io(path, e))
 }
 
 /// Every reader ends here: no index may point past its mesh's vertices, no instance past

@@ -513,6 +513,20 @@ fn scalar_type(attribute: &VertexAttribute) -> ScalarType {
 /// in the header's order (per-property callbacks cost several times as much on the
 /// dragon).
 pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
+    write_with(mesh, None, path)
+}
+
+/// [`write`] with the triangles as one `tristrips` element instead of faces: the
+/// rasterization strips `strips`, joined by −1 restarts.
+pub(super) fn write_strips(
+    mesh: &TriMesh,
+    strips: &[Vec<u32>],
+    path: &Path,
+) -> std::io::Result<()> {
+    write_with(mesh, Some(strips), path)
+}
+
+fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::io::Result<()> {
     use ply_rs_bw::ply::{Addable, Header, PropertyDef};
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
     let mut header = Header::new();
@@ -539,12 +553,25 @@ pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
         }
     }
     header.elements.add(vertex);
-    let mut face = ElementDef::new("face".into());
-    face.count = mesh.triangles.len();
-    face.properties.add(PropertyDef::new(
-        "vertex_indices".into(),
-        PropertyType::List(ScalarType::UChar, ScalarType::UInt),
-    ));
+    let mut face = ElementDef::new(
+        if strips.is_some() {
+            "tristrips"
+        } else {
+            "face"
+        }
+        .into(),
+    );
+    face.count = if strips.is_some() {
+        1
+    } else {
+        mesh.triangles.len()
+    };
+    let list = match strips {
+        Some(_) => PropertyType::List(ScalarType::Int, ScalarType::Int),
+        None => PropertyType::List(ScalarType::UChar, ScalarType::UInt),
+    };
+    face.properties
+        .add(PropertyDef::new("vertex_indices".into(), list));
     header.elements.add(face);
     ply_rs_bw::writer::Writer::<DefaultElement>::new()
         .write_header(&mut out, &header)
@@ -559,6 +586,21 @@ pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
             attribute.push_vertex_bytes(v, &mut row);
         }
         out.write_all(&row)?;
+    }
+    if let Some(strips) = strips {
+        let joined: Vec<i32> = strips
+            .iter()
+            .enumerate()
+            .flat_map(|(s, strip)| {
+                let restart = (s > 0).then_some(-1);
+                restart.into_iter().chain(strip.iter().map(|&v| v as i32))
+            })
+            .collect();
+        out.write_all(&(joined.len() as i32).to_le_bytes())?;
+        for v in joined {
+            out.write_all(&v.to_le_bytes())?;
+        }
+        return out.flush();
     }
     for t in &mesh.triangles {
         out.write_all(&[3])?;

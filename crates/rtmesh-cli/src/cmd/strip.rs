@@ -1,0 +1,144 @@
+//! `rtmesh strip`: triangle strips for ray tracing (Strip-RT) or for rasterization
+//! (meshoptimizer), with their figures and, with -o, the stripped mesh.
+
+use crate::args::load;
+use crate::output::emit;
+use anyhow::{bail, Context, Result};
+use rtmesh::mesh::weld_exact;
+use rtmesh::strip::{meshopt, sah, StripReport, Strips};
+use rtmesh::TriMesh;
+use serde::Serialize;
+use std::path::PathBuf;
+
+/// Turn a mesh's triangles into strips: sequences in which each triangle shares an edge
+/// with the one before, so that each costs one vertex index instead of three.
+///
+/// `sah` (Strip-RT, Lauterbach's ReduceM stripification) merges sequences along an SAH
+/// partition of the mesh, balanced in length, so that every strip and every half of
+/// one is compact: strips a ray tracer can trace directly. `meshopt` is meshoptimizer's
+/// rasterization stripifier, the baseline. The scene is flattened to world space and
+/// welded exactly (equal positions and attributes) first. rtmesh's strip format, bit
+/// by bit, is in crates/rtmesh/src/strip/mod.rs.
+///
+/// Examples:
+///   rtmesh strip dragon.ply
+///   rtmesh strip dragon.ply -o dragon-strips.ply    # a PLY tristrips element
+///   rtmesh strip dragon.ply -o dragon.rts           # rtmesh's compact format
+///   rtmesh strip bunny.obj --method meshopt --json
+#[derive(clap::Args)]
+pub struct Args {
+    /// The mesh file, or builtin:NAME.
+    mesh: String,
+    /// Write the stripped mesh: .ply (a `tristrips` element with −1 restarts, every
+    /// vertex attribute kept) or .rts (rtmesh's strip format with positions).
+    #[arg(short, long)]
+    output: Option<PathBuf>,
+    /// sah (Strip-RT) or meshopt (meshoptimizer's stripifier, cut at --max-length).
+    #[arg(long, default_value = "sah")]
+    method: String,
+    /// Most triangles in one strip.
+    #[arg(long, default_value_t = sah::StripSettings::default().max_length as u32, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    max_length: u32,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    json: bool,
+}
+
+/// What `strip` made.
+#[derive(Serialize)]
+pub struct Report {
+    mesh: String,
+    method: String,
+    max_length: u32,
+    #[serde(flatten)]
+    strips: StripReport,
+    /// meshoptimizer's own output, restart indices included (meshopt only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    native_indices_per_triangle: Option<f64>,
+    /// Where the strips were written.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    output: Option<PathBuf>,
+}
+
+/// Strip the mesh by `method`: the strips and, for meshopt, its own index count.
+pub fn strips_by(
+    mesh: &TriMesh,
+    method: &str,
+    max_length: usize,
+) -> Result<(Strips, Option<usize>)> {
+    match method {
+        "sah" => Ok((
+            sah::stripify(mesh, &sah::StripSettings { max_length }),
+            None,
+        )),
+        "meshopt" => {
+            let m = meshopt::stripify(mesh, max_length);
+            Ok((m.strips, Some(m.native_indices)))
+        }
+        other => bail!("unknown strip method `{other}` (have: sah, meshopt)"),
+    }
+}
+
+/// Strip, write, report.
+pub fn run(args: Args) -> Result<()> {
+    let scene = load(&args.mesh)?;
+    let mesh = weld_exact(&scene.flatten()).mesh;
+    if mesh.triangle_count() == 0 {
+        bail!("{}: no triangles to strip", args.mesh);
+    }
+    let start = std::time::Instant::now();
+    let (strips, native) = strips_by(&mesh, &args.method, args.max_length as usize)?;
+    let seconds = start.elapsed().as_secs_f64();
+    if let Some(path) = &args.output {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .unwrap_or("")
+            .to_ascii_lowercase();
+        match ext.as_str() {
+            "ply" => rtmesh::io::write_ply_strips(&mesh, &strips.to_standard(), path)?,
+            "rts" => std::fs::write(path, strips.to_rts(&mesh.positions))
+                .with_context(|| format!("{}: cannot write", path.display()))?,
+            _ => bail!(
+                "{}: strips are written as .ply (tristrips) or .rts; glTF TRIANGLE_STRIP output is not built yet",
+                path.display()
+            ),
+        }
+    }
+    let report = Report {
+        mesh: args.mesh,
+        method: args.method,
+        max_length: args.max_length,
+        native_indices_per_triangle: native
+            .map(|n| n as f64 / strips.triangle_count().max(1) as f64),
+        strips: StripReport::of(&strips, seconds),
+        output: args.output,
+    };
+    emit(&report, args.json, |r| {
+        let s = &r.strips;
+        println!(
+            "{}: {} triangles in {} strips by {} (max length {}) in {:.3} s ({:.2} M triangles/s)",
+            r.mesh,
+            s.triangles,
+            s.strips,
+            r.method,
+            r.max_length,
+            s.seconds,
+            s.triangles as f64 / s.seconds.max(1e-9) / 1e6
+        );
+        println!(
+            "  indices      {} ({:.3} per triangle), mean length {:.1}, {} restarts",
+            s.indices, s.indices_per_triangle, s.mean_length, s.restarts
+        );
+        println!(
+            "  topology     {:.2} bytes per triangle (indices, turn bits, strip table)",
+            s.bytes_per_triangle
+        );
+        if let Some(n) = r.native_indices_per_triangle {
+            println!("  meshopt's own strips: {n:.3} indices per triangle, restarts included");
+        }
+        if let Some(path) = &r.output {
+            println!("  wrote        {}", path.display());
+        }
+    })
+}

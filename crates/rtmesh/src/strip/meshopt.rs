@@ -1,0 +1,118 @@
+//! The baseline: meshoptimizer's rasterization stripifier (`meshopt_stripify`, through
+//! the `meshopt` crate, which vendors meshoptimizer 1.3), after its vertex-cache
+//! optimisation (`meshopt_optimizeVertexCache`), as a renderer would run it.
+//!
+//! Its strips are rasterization strips with restart indices. To trace them on the same
+//! hierarchy as Strip-RT's, each run is decoded and cut into rtmesh's strip format
+//! wherever two consecutive triangles do not share an edge the other way round
+//! (meshoptimizer's swaps and joins), and at `max_length`. Triangles with a repeated
+//! index, which meshoptimizer drops, become strips of one.
+//!
+//! Cost: meshoptimizer's, O(T), then O(T) to map its triangles back to input ids.
+
+use super::{standard_triangles, Encoder, Strips};
+use crate::mesh::TriMesh;
+use std::collections::HashMap;
+
+/// What meshoptimizer's stripifier made.
+pub struct MeshoptStrips {
+    /// Its strips, converted to rtmesh's format and cut at the maximum length.
+    pub strips: Strips,
+    /// Indices of its own output, restarts included.
+    pub native_indices: usize,
+    /// Restart indices in its own output.
+    pub native_restarts: usize,
+}
+
+/// The restart index passed to meshoptimizer.
+const RESTART: u32 = u32::MAX;
+
+/// Stripify `mesh` with meshoptimizer, then cut its strips at `max_length`.
+pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
+    let tris = &mesh.triangles;
+    let vertex_count = mesh.positions.len();
+    let proper = |t: &[u32; 3]| {
+        t[0] != t[1]
+            && t[1] != t[2]
+            && t[2] != t[0]
+            && t.iter().all(|&v| (v as usize) < vertex_count)
+    };
+    let indices: Vec<u32> = tris
+        .iter()
+        .filter(|t| proper(t))
+        .flatten()
+        .copied()
+        .collect();
+    // meshoptimizer asserts that output and input differ, which two empty vectors'
+    // dangling pointers do not.
+    let native = if indices.is_empty() {
+        Vec::new()
+    } else {
+        let cached = ::meshopt::optimize_vertex_cache(&indices, vertex_count);
+        ::meshopt::stripify(&cached, vertex_count, RESTART).unwrap_or_default()
+    };
+    let native_restarts = native.iter().filter(|&&i| i == RESTART).count();
+
+    // Input ids of each triangle, by its rotation that starts at its smallest index.
+    let key = |t: [u32; 3]| {
+        let r = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+        [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
+    };
+    let mut ids: HashMap<[u32; 3], Vec<u32>> = HashMap::with_capacity(tris.len());
+    for (t, &v) in tris.iter().enumerate().rev() {
+        ids.entry(key(v)).or_default().push(t as u32);
+    }
+    let mut encoder = Encoder::new(tris);
+    let mut sequence: Vec<u32> = Vec::new();
+    let mut exits: Vec<u8> = Vec::new();
+    let max_length = max_length.max(1);
+    let flush = |sequence: &mut Vec<u32>, exits: &mut Vec<u8>, encoder: &mut Encoder| {
+        encoder.push(sequence, exits);
+        sequence.clear();
+        exits.clear();
+    };
+    for run in native.split(|&i| i == RESTART) {
+        for t in standard_triangles(run, None) {
+            let Some(id) = ids.get_mut(&key(t)).and_then(|v| v.pop()) else {
+                continue;
+            };
+            // The side of the previous triangle this one shares the other way round,
+            // other than the side the previous one was entered by.
+            let exit = sequence.last().and_then(|&p| {
+                let prev = tris[p as usize];
+                let entry = exits.len().checked_sub(1).map(|i| {
+                    let q = tris[sequence[i] as usize];
+                    let s = exits[i] as usize;
+                    [q[(s + 1) % 3], q[s]]
+                });
+                (0..3).find(|&s| {
+                    let edge = [prev[s], prev[(s + 1) % 3]];
+                    let shares = (0..3).any(|k| {
+                        tris[id as usize][k] == edge[1] && tris[id as usize][(k + 1) % 3] == edge[0]
+                    });
+                    shares && entry != Some(edge)
+                })
+            });
+            match exit {
+                Some(s) if sequence.len() < max_length => exits.push(s as u8),
+                _ if sequence.is_empty() => {}
+                _ => flush(&mut sequence, &mut exits, &mut encoder),
+            }
+            sequence.push(id);
+        }
+        if !sequence.is_empty() {
+            flush(&mut sequence, &mut exits, &mut encoder);
+        }
+    }
+    // Whatever meshoptimizer did not return (degenerate or out-of-range triangles).
+    let mut left: Vec<u32> = ids.into_values().flatten().collect();
+    left.sort_unstable();
+    for t in left {
+        encoder.push(&[t], &[]);
+    }
+    MeshoptStrips {
+        strips: encoder.finish(),
+        native_indices: native.len(),
+        native_restarts,
+    }
+}

@@ -1,0 +1,156 @@
+use super::sah::{stripify, StripSettings};
+use super::*;
+use crate::scenes;
+use proptest::prelude::*;
+
+/// Every input triangle exactly once, decoded as a rotation of itself (its winding),
+/// strips within the maximum length, and the rasterization form decoding to the same.
+fn assert_valid(mesh: &TriMesh, strips: &Strips, max_length: usize) {
+    assert_eq!(strips.triangle_count(), mesh.triangle_count());
+    let mut seen = vec![false; mesh.triangle_count()];
+    let decoded = strips.decode();
+    for (k, &t) in strips.triangle_source.iter().enumerate() {
+        assert!(!std::mem::replace(&mut seen[t as usize], true), "{t} twice");
+        assert!(
+            same_winding(decoded[k], mesh.triangles[t as usize]),
+            "triangle {t}: {:?} decoded as {:?}",
+            mesh.triangles[t as usize],
+            decoded[k]
+        );
+    }
+    for s in 0..strips.len() {
+        assert!(strips.triangles_of(s).len() <= max_length.max(1));
+    }
+    let standard = strips.to_standard();
+    for s in 0..strips.len() {
+        let expected: Vec<[u32; 3]> = strips
+            .triangles_of(s)
+            .map(|k| decoded[k])
+            .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+            .collect();
+        let got = standard_triangles(&standard[s], None);
+        assert_eq!(got.len(), expected.len(), "strip {s}: {:?}", standard[s]);
+        for (g, e) in got.iter().zip(&expected) {
+            assert!(same_winding(*g, *e), "strip {s}: {g:?} for {e:?}");
+        }
+    }
+}
+
+#[test]
+fn a_quad_is_one_strip_of_four_indices() {
+    let mesh = TriMesh::new(
+        vec![
+            glam::Vec3::ZERO,
+            glam::Vec3::X,
+            glam::Vec3::ONE,
+            glam::Vec3::Y,
+        ],
+        vec![[0, 1, 2], [0, 2, 3]],
+    );
+    let strips = stripify(&mesh, &StripSettings::default());
+    assert_valid(&mesh, &strips, 32);
+    assert_eq!(strips.len(), 1);
+    assert_eq!(strips.indices.len(), 4);
+    // The first triangle is rotated to (v[s+2], v[s], v[s+1]) for its shared side s:
+    // side 2, (2, 0), of [0, 1, 2], or side 0, (0, 2), of [0, 2, 3].
+    assert!(
+        strips.indices == [1, 2, 0, 3] || strips.indices == [3, 0, 2, 1],
+        "{:?}",
+        strips.indices
+    );
+}
+
+#[test]
+fn grid_strips_approach_one_index_per_triangle() {
+    let mesh = scenes::quad_grid(40);
+    let settings = StripSettings { max_length: 64 };
+    let strips = stripify(&mesh, &settings);
+    assert_valid(&mesh, &strips, 64);
+    let report = StripReport::of(&strips, 0.0);
+    assert!(report.indices_per_triangle < 1.15, "{report:?}");
+}
+
+#[test]
+fn fans_and_spheres_strip_validly() {
+    for mesh in [scenes::fan_cylinder(48), scenes::uv_sphere(12, 24)] {
+        for max_length in [1, 2, 7, 32] {
+            let strips = stripify(&mesh, &StripSettings { max_length });
+            assert_valid(&mesh, &strips, max_length);
+        }
+    }
+}
+
+#[test]
+fn meshopt_strips_are_valid_and_longer_in_indices() {
+    let mesh = scenes::quad_grid(30);
+    let ours = stripify(&mesh, &StripSettings::default());
+    let theirs = meshopt::stripify(&mesh, 32);
+    assert_valid(&mesh, &theirs.strips, 32);
+    assert!(theirs.native_indices > mesh.triangle_count());
+    assert!(ours.indices.len() <= theirs.strips.indices.len());
+}
+
+#[test]
+fn inconsistent_winding_and_nonmanifold_edges_break_strips() {
+    // Three triangles on edge (0, 1), and one flipped neighbour.
+    let p = |x: f32, y: f32, z: f32| glam::Vec3::new(x, y, z);
+    let mesh = TriMesh::new(
+        vec![
+            p(0., 0., 0.),
+            p(1., 0., 0.),
+            p(0., 1., 0.),
+            p(0., -1., 0.),
+            p(0., 0., 1.),
+            p(1., 1., 0.),
+        ],
+        vec![[0, 1, 2], [1, 0, 3], [0, 1, 4], [1, 2, 5]],
+    );
+    let strips = stripify(&mesh, &StripSettings::default());
+    assert_valid(&mesh, &strips, 32);
+    // Edge (0, 1) has three triangles and (1, 2) is the same way round in both: no
+    // triangle has a strip neighbour.
+    assert_eq!(strips.len(), 4);
+}
+
+fn arbitrary_mesh() -> impl Strategy<Value = TriMesh> {
+    (4usize..24).prop_flat_map(|v| {
+        (
+            proptest::collection::vec(
+                (-4.0f32..4.0, -4.0f32..4.0, -4.0f32..4.0)
+                    .prop_map(|(x, y, z)| glam::Vec3::new(x, y, z)),
+                v,
+            ),
+            proptest::collection::vec([0..v as u32, 0..v as u32, 0..v as u32], 1..60),
+        )
+            .prop_map(|(positions, triangles)| TriMesh::new(positions, triangles))
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Random, non-manifold, disconnected meshes with repeated vertices: every triangle
+    /// once, with its winding, for Strip-RT and for meshoptimizer's strips.
+    #[test]
+    fn random_meshes_strip_losslessly(mesh in arbitrary_mesh(), max_length in 1usize..40) {
+        let strips = stripify(&mesh, &StripSettings { max_length });
+        assert_valid(&mesh, &strips, max_length);
+        let theirs = meshopt::stripify(&mesh, max_length);
+        assert_valid(&mesh, &theirs.strips, max_length);
+    }
+
+    /// A grid with holes punched in it.
+    #[test]
+    fn grids_with_holes_strip_losslessly(holes in proptest::collection::vec(0usize..800, 0..100)) {
+        let mut mesh = scenes::quad_grid(20);
+        let mut keep = vec![true; mesh.triangle_count()];
+        let n = keep.len();
+        for h in holes {
+            keep[h % n] = false;
+        }
+        let mut k = keep.iter();
+        mesh.triangles.retain(|_| *k.next().unwrap());
+        let strips = stripify(&mesh, &StripSettings::default());
+        assert_valid(&mesh, &strips, 32);
+    }
+}
