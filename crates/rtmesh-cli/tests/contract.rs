@@ -591,3 +591,102 @@ fn cluster_and_dynamic_keys() {
     assert_eq!(unbuilt.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&unbuilt.stderr).contains("only grow is built"));
 }
+
+#[test]
+fn strip_and_bench_strips_keys_and_files() {
+    let dir = scratch("strip");
+    let keys = [
+        "mesh",
+        "method",
+        "max_length",
+        "triangles",
+        "strips",
+        "indices",
+        "indices_per_triangle",
+        "mean_length",
+        "restarts",
+        "bytes_per_triangle",
+        "seconds",
+        "output",
+    ];
+    for (method, ext) in [("sah", "ply"), ("sah", "rts"), ("meshopt", "ply")] {
+        let out = dir.join(format!("grid-{method}.{ext}"));
+        let mut expected: Vec<&str> = keys.to_vec();
+        if method == "meshopt" {
+            expected.push("native_indices_per_triangle");
+        }
+        let report = assert_keys(
+            &[
+                "strip",
+                "builtin:grid",
+                "--method",
+                method,
+                "-o",
+                out.to_str().unwrap(),
+                "--json",
+            ],
+            &expected,
+        );
+        let triangles = report[0]["triangles"].as_u64().unwrap();
+        assert!(report[0]["indices_per_triangle"].as_f64().unwrap() < 1.6);
+        if ext == "ply" {
+            // The tristrips PLY reads back as the same number of triangles.
+            let info = assert_keys_any(&["info", out.to_str().unwrap(), "--json"]);
+            assert_eq!(info["triangles"].as_u64(), Some(triangles), "{info}");
+        } else {
+            let bytes = std::fs::read(&out).unwrap();
+            assert!(bytes.starts_with(b"RTS1"));
+        }
+    }
+    let gltf = dir.join("grid.glb");
+    let out = rtmesh(&["strip", "builtin:grid", "-o", gltf.to_str().unwrap()]);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "glTF strips are refused, not half-written"
+    );
+    let rows = assert_keys(
+        &[
+            "bench",
+            "strips",
+            "builtin:grid",
+            "--size",
+            "16x16",
+            "--runs",
+            "1",
+            "--json",
+        ],
+        &[
+            "mesh",
+            "method",
+            "workload",
+            "indices_per_triangle",
+            "bytes_per_triangle",
+            "total_bytes_per_triangle",
+            "mrays_per_s",
+            "box_tests_per_ray",
+            "tri_tests_per_ray",
+            "same_hits",
+            "prepare_seconds",
+        ],
+    );
+    let methods: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    for m in ["triangles", "pairs", "sah", "meshopt"] {
+        assert!(methods.contains(&m), "{methods:?}");
+    }
+    for row in &rows {
+        assert!(row["same_hits"].as_f64().unwrap() > 0.99, "{row}");
+    }
+}
+
+/// Run `args`, which must succeed, and return its JSON object.
+fn assert_keys_any(args: &[&str]) -> Value {
+    let out = rtmesh(args);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("one JSON object")
+}

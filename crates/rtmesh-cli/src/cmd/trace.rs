@@ -9,6 +9,7 @@ use rtmesh::pair::PairMethod;
 use rtmesh::trace::accel::AccelStats;
 use rtmesh::trace::intersect::IntersectorKind;
 use rtmesh::trace::measure::{measure, measure_by_kind, measure_packets_by_kind, with_threads};
+use rtmesh::trace::strip::{Inside, StripAccel};
 use rtmesh::trace::{RayKind, SceneAccel, TraceRun, Workload};
 use serde::Serialize;
 
@@ -19,6 +20,9 @@ pub enum Leaf {
     Tri,
     /// 4 triangle pairs per SIMD test, paired by --pair-method after welding.
     Pair,
+    /// Strip-RT strips (default maximum length), traced directly: a BVH over the
+    /// strips, an implicit balanced split inside each (the scene flattened and welded).
+    Strip,
 }
 
 /// Ray packets for `trace`.
@@ -112,7 +116,7 @@ pub fn run(args: Args) -> Result<()> {
         Packets::Eight => 8,
     };
     let intersector = args.intersector.map(IntersectorKind::from);
-    if args.leaf == Leaf::Pair && (side > 1 || intersector.is_some()) {
+    if args.leaf != Leaf::Tri && (side > 1 || intersector.is_some()) {
         anyhow::bail!("--packet and --intersector work with --leaf tri only");
     }
     let scene = load(&args.mesh)?;
@@ -127,7 +131,10 @@ pub fn run(args: Args) -> Result<()> {
             (width, height),
             1,
         );
-        let (stats, run) = if args.leaf == Leaf::Pair {
+        let (stats, run) = if args.leaf == Leaf::Strip {
+            let accel = strip_accel(&scene);
+            (accel.0, measure(&accel.1, &work, args.runs))
+        } else if args.leaf == Leaf::Pair {
             let (welded, pairings) = rtmesh::pair::weld_and_pair(&scene, args.pair_method);
             let pairs = SceneAccel::build_paired(&welded, &pairings, &BuildSettings::default());
             (pairs.stats(), measure(&pairs, &work, args.runs))
@@ -164,6 +171,26 @@ pub fn run(args: Args) -> Result<()> {
         bvh,
     };
     emit(&report, args.json, print)
+}
+
+/// The scene as Strip-RT strips traced directly, and the figures of its hierarchy.
+fn strip_accel(scene: &rtmesh::Scene) -> (AccelStats, StripAccel) {
+    let mesh = rtmesh::mesh::weld_exact(&scene.flatten()).mesh;
+    let strips = rtmesh::strip::sah::stripify(&mesh, &Default::default());
+    let accel = StripAccel::build(&mesh.positions, &strips, 1, Inside::Implicit)
+        .expect("the default maximum length is within the tracer's");
+    let bvh = accel.stats();
+    let bytes = accel.hierarchy_bytes() + accel.topology_bytes() + accel.position_bytes();
+    let stats = AccelStats {
+        nodes: bvh.nodes,
+        leaves: bvh.leaves,
+        sah_cost: bvh.sah_cost,
+        build_seconds: accel.build_seconds(),
+        bytes,
+        bytes_per_triangle: bytes as f64 / mesh.triangle_count().max(1) as f64,
+        depth: bvh.depth,
+    };
+    (stats, accel)
 }
 
 fn print(report: &Report) {

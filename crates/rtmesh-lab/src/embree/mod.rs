@@ -39,6 +39,8 @@ const RTC_BUFFER_TYPE_VERTEX: u32 = 1;
 const RTC_FORMAT_UINT3: u32 = 0x5003;
 const RTC_FORMAT_FLOAT3: u32 = 0x9003;
 const RTC_INVALID_GEOMETRY_ID: u32 = u32::MAX;
+/// `RTC_SCENE_FLAG_COMPACT` (Embree 3 and 4: `1 << 1`).
+const RTC_SCENE_FLAG_COMPACT: u32 = 1 << 1;
 
 #[repr(C)]
 struct RTCIntersectContext {
@@ -91,6 +93,7 @@ extern "C" {
     fn rtcNewScene(device: RTCDevice) -> RTCScene;
     fn rtcReleaseScene(scene: RTCScene);
     fn rtcCommitScene(scene: RTCScene);
+    fn rtcSetSceneFlags(scene: RTCScene, flags: u32);
     fn rtcNewGeometry(device: RTCDevice, kind: u32) -> RTCGeometry;
     fn rtcSetNewGeometryBuffer(
         geometry: RTCGeometry,
@@ -141,7 +144,13 @@ extern "C" fn count_bytes(user: *mut c_void, bytes: isize, _post: bool) -> bool 
 impl EmbreeScene {
     /// Build `scene` with Embree using `threads` build threads (0 = all cores).
     pub fn build(scene: &Scene, threads: usize) -> Result<Self, LabError> {
-        Self::build_with(scene, None, threads)
+        Self::build_with(scene, None, threads, 0)
+    }
+
+    /// Build `scene` with `RTC_SCENE_FLAG_COMPACT`: Embree's compact BVH and triangle
+    /// layout, smaller and usually slower to trace.
+    pub fn build_compact(scene: &Scene, threads: usize) -> Result<Self, LabError> {
+        Self::build_with(scene, None, threads, RTC_SCENE_FLAG_COMPACT)
     }
 
     /// Build `scene` as quads, `pairings[m]` pairing mesh `m` (as
@@ -151,13 +160,14 @@ impl EmbreeScene {
         pairings: &[rtmesh::pair::Pairing],
         threads: usize,
     ) -> Result<Self, LabError> {
-        Self::build_with(scene, Some(pairings), threads)
+        Self::build_with(scene, Some(pairings), threads, 0)
     }
 
     fn build_with(
         scene: &Scene,
         pairings: Option<&[rtmesh::pair::Pairing]>,
         threads: usize,
+        scene_flags: u32,
     ) -> Result<Self, LabError> {
         let config =
             CString::new(format!("threads={threads},set_affinity=0,verbose=0")).expect("no NUL");
@@ -185,6 +195,7 @@ impl EmbreeScene {
             );
             let start = std::time::Instant::now();
             let handle = rtcNewScene(device);
+            rtcSetSceneFlags(handle, scene_flags);
             for (id, instance) in scene.instances.iter().enumerate() {
                 let mesh = &scene.meshes[instance.mesh];
                 let (kind, format, stride, count) = match &quads {

@@ -5,4 +5,5 @@ pub mod intersect;
 pub mod packets;
 pub mod pairing;
 pub mod quads;
+pub mod strips;
 pub mod trace;

@@ -121,6 +121,33 @@ impl Strips {
         out
     }
 
+    /// The same strips in the order `order` (a permutation of strip ids).
+    pub fn reordered(&self, order: &[u32]) -> Strips {
+        let mut out = Strips {
+            indices: Vec::with_capacity(self.indices.len()),
+            turns: vec![0; self.turns.len()],
+            strip_start: Vec::with_capacity(self.strip_start.len()),
+            triangle_source: Vec::with_capacity(self.triangle_source.len()),
+        };
+        out.strip_start.push(0);
+        for &s in order {
+            let s = s as usize;
+            let range = self.triangles_of(s);
+            let base = range.start + 2 * s;
+            out.indices
+                .extend_from_slice(&self.indices[base..base + range.len() + 2]);
+            for k in range.clone() {
+                let to = out.triangle_source.len();
+                if self.turn(k) {
+                    out.turns[to / 32] |= 1 << (to % 32);
+                }
+                out.triangle_source.push(self.triangle_source[k]);
+            }
+            out.strip_start.push(out.triangle_source.len() as u32);
+        }
+        out
+    }
+
     /// Bytes of topology: indices, turn bits and the strip table (the map back to input
     /// ids not counted, as for every leaf kind).
     pub fn bytes(&self) -> usize {

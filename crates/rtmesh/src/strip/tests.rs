@@ -21,15 +21,14 @@ fn assert_valid(mesh: &TriMesh, strips: &Strips, max_length: usize) {
     for s in 0..strips.len() {
         assert!(strips.triangles_of(s).len() <= max_length.max(1));
     }
-    let standard = strips.to_standard();
-    for s in 0..strips.len() {
+    for (s, list) in strips.to_standard().iter().enumerate() {
         let expected: Vec<[u32; 3]> = strips
             .triangles_of(s)
             .map(|k| decoded[k])
             .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
             .collect();
-        let got = standard_triangles(&standard[s], None);
-        assert_eq!(got.len(), expected.len(), "strip {s}: {:?}", standard[s]);
+        let got = standard_triangles(list, None);
+        assert_eq!(got.len(), expected.len(), "strip {s}: {list:?}");
         for (g, e) in got.iter().zip(&expected) {
             assert!(same_winding(*g, *e), "strip {s}: {g:?} for {e:?}");
         }
@@ -152,5 +151,63 @@ proptest! {
         mesh.triangles.retain(|_| *k.next().unwrap());
         let strips = stripify(&mesh, &StripSettings::default());
         assert_valid(&mesh, &strips, 32);
+    }
+}
+
+#[test]
+fn rts_files_round_trip_and_refuse_damage() {
+    let mesh = scenes::uv_sphere(10, 20);
+    let strips = stripify(&mesh, &StripSettings::default());
+    let bytes = strips.to_rts(&mesh.positions);
+    let (positions, back) = Strips::from_rts(&bytes).expect("valid");
+    assert_eq!(positions, mesh.positions);
+    assert_eq!(back, strips);
+    assert!(Strips::from_rts(&bytes[..bytes.len() - 1]).is_err());
+    assert!(Strips::from_rts(b"RTS1").is_err());
+    let mut absurd = bytes.clone();
+    absurd[4..8].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(Strips::from_rts(&absurd).is_err());
+}
+
+#[test]
+fn traced_strips_hit_what_triangles_hit() {
+    use crate::bvh::BuildSettings;
+    use crate::trace::run::trace_closest;
+    use crate::trace::strip::{Inside, StripAccel};
+    use crate::trace::{NoCounters, RayKind, SceneAccel, Workload};
+    let mesh = scenes::scan_blob(20_000, 7);
+    let scene = crate::Scene::from_mesh(mesh.clone());
+    let triangles = SceneAccel::build(&scene, &BuildSettings::default());
+    let strips = stripify(&mesh, &StripSettings::default());
+    for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
+        let work = Workload::generate(kind, &scene, &triangles, 64, 64, 1);
+        let reference = trace_closest::<NoCounters>(&triangles, &work.rays).0;
+        for inside in [Inside::Flat, Inside::Implicit] {
+            let accel =
+                StripAccel::build(&mesh.positions, &strips, 2, inside).expect("short strips");
+            let hits = trace_closest::<NoCounters>(&accel, &work.rays).0;
+            let same = hits
+                .iter()
+                .zip(&reference)
+                .filter(|(a, b)| a.triangle == b.triangle)
+                .count();
+            // Ties at equal distance on shared edges may go either way; nothing else.
+            assert!(
+                same as f64 >= 0.999 * hits.len() as f64,
+                "{kind:?} {inside:?}: {same}/{}",
+                hits.len()
+            );
+            for (a, b) in hits.iter().zip(&reference) {
+                assert_eq!(a.is_hit(), b.is_hit());
+                if a.is_hit() {
+                    assert!(
+                        (a.t - b.t).abs() <= 1e-4 * b.t.abs().max(1.0),
+                        "{} vs {}",
+                        a.t,
+                        b.t
+                    );
+                }
+            }
+        }
     }
 }

@@ -12,6 +12,7 @@ pub mod measure;
 pub mod packet;
 pub mod pair;
 pub mod run;
+pub mod strip;
 pub(crate) mod traverse;
 pub mod triangle;
 pub mod workload;

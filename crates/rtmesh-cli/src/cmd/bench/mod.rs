@@ -4,6 +4,7 @@
 mod intersect;
 mod packets;
 mod pairing;
+mod strips;
 mod trace;
 
 use anyhow::Result;
@@ -22,6 +23,7 @@ enum Table {
     Pairing(pairing::Args),
     Packets(packets::Args),
     Intersect(intersect::Args),
+    Strips(strips::Args),
 }
 
 /// Measure and print the table asked for.
@@ -31,5 +33,6 @@ pub fn run(args: Args) -> Result<()> {
         Table::Pairing(args) => pairing::run(args),
         Table::Packets(args) => packets::run(args),
         Table::Intersect(args) => intersect::run(args),
+        Table::Strips(args) => strips::run(args),
     }
 }

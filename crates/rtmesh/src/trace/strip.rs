@@ -1,0 +1,404 @@
+//! Strip leaves: triangle strips traced directly, through a BVH over whole strips and
+//! an implicit, balanced hierarchy inside each (ReduceM: "does not have a choice in
+//! where to put the split inside the strip"; Lauterbach's thesis, ch. 3).
+//!
+//! The top is rtmesh's 8-wide binned-SAH BVH over the strips' boxes, up to
+//! `strips_per_leaf` strips a leaf, with the strips stored in leaf order. A leaf visit
+//! decodes each strip's triangles from the shared vertex buffer (one index and one
+//! turn bit each: [`crate::strip::Strips`]) into the tracer's 4-wide blocks on the
+//! stack. Inside a strip ([`Inside`]):
+//!
+//! - [`Inside::Flat`]: every block of the strip is tested;
+//! - [`Inside::Implicit`]: a range longer than 8 triangles is split at its middle
+//!   triangle, the two halves' boxes are computed from the decoded corners on the fly
+//!   and tested, nearest first. Nothing is stored for it.
+//!
+//! Stored boxes inside the strip (in full, or quantized to 8-bit planes as Embree's
+//! QBVH and CWBVH store them) would spend bytes per triangle to save the on-the-fly
+//! boxes; neither is built (docs/measurements/strips.md has the trade-off measured).
+//!
+//! Hits carry the input triangle id; their `(u, v)` are relative to the strip's
+//! rotation of the corners (it starts at another corner when the strip entered the
+//! triangle by another edge), not necessarily the input's.
+//!
+//! Cost per leaf visit: O(L) to decode a strip of L triangles, then ⌈L/4⌉ block tests
+//! (flat), or about 2·log₂(L/8) box computations of O(L) and a few blocks (implicit).
+
+use super::triangle::Triangle4;
+use super::{traverse, Counters, Hit, LeafBlock, RayQuery, Tracer, Triangle};
+use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive};
+use crate::geom::{Aabb, Ray};
+use crate::simd::{dispatch, Isa, Kernel};
+use crate::strip::Strips;
+use glam::Vec3;
+use std::cell::RefCell;
+
+/// Longest strip the tracer takes (a strip is decoded on the stack).
+pub const MAX_TRACED_LENGTH: usize = 64;
+
+/// What a strip's triangles are tested through.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Inside {
+    /// Every triangle, four at a time.
+    Flat,
+    /// A balanced binary split at the middle triangle, boxes computed on the fly.
+    Implicit,
+}
+
+/// Room for one decoded strip.
+struct Decoded([std::mem::MaybeUninit<Triangle>; MAX_TRACED_LENGTH]);
+
+impl Decoded {
+    #[inline(always)]
+    fn new() -> Self {
+        Self([const { std::mem::MaybeUninit::uninit() }; MAX_TRACED_LENGTH])
+    }
+}
+
+/// A strip's box, for the build.
+struct StripBox {
+    strip: u32,
+    bounds: Aabb,
+}
+
+impl Primitive for StripBox {
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+}
+
+/// A BVH leaf: strips `first .. first + count` in leaf order.
+#[derive(Clone, Copy, Debug)]
+pub struct StripRange {
+    first: u32,
+    count: u32,
+}
+
+impl Primitive for StripRange {
+    fn bounds(&self) -> Aabb {
+        Aabb::EMPTY
+    }
+}
+
+/// Strips traced directly.
+pub struct StripAccel {
+    bvh: Bvh<StripRange>,
+    strips: Strips,
+    positions: Vec<Vec3>,
+    inside: Inside,
+}
+
+/// Why strips cannot be traced.
+#[derive(Debug, thiserror::Error)]
+pub enum StripAccelError {
+    /// A strip is longer than [`MAX_TRACED_LENGTH`].
+    #[error("strip {strip} has {length} triangles; the tracer takes at most {MAX_TRACED_LENGTH}")]
+    TooLong {
+        /// The strip.
+        strip: usize,
+        /// Its length.
+        length: usize,
+    },
+}
+
+impl StripAccel {
+    /// Build over `strips` of a mesh with `positions`, up to `strips_per_leaf` strips
+    /// in a leaf (1..=15).
+    pub fn build(
+        positions: &[Vec3],
+        strips: &Strips,
+        strips_per_leaf: usize,
+        inside: Inside,
+    ) -> Result<Self, StripAccelError> {
+        let start = std::time::Instant::now();
+        let mut boxes = Vec::with_capacity(strips.len());
+        for s in 0..strips.len() {
+            let length = strips.triangles_of(s).len();
+            if length > MAX_TRACED_LENGTH {
+                return Err(StripAccelError::TooLong { strip: s, length });
+            }
+            let mut bounds = Aabb::EMPTY;
+            strips.for_each_triangle(s, |_, t| {
+                for v in t {
+                    bounds = bounds.grown_by_point(positions[v as usize]);
+                }
+            });
+            boxes.push(StripBox {
+                strip: s as u32,
+                bounds,
+            });
+        }
+        let settings = BuildSettings {
+            max_leaf_size: strips_per_leaf.clamp(1, 15),
+            ..BuildSettings::quality()
+        };
+        let tree = Bvh::build(boxes, &settings);
+        // Strips in leaf order, each leaf a contiguous range of them.
+        let order = RefCell::new(Vec::with_capacity(strips.len()));
+        let mut bvh = tree.map_leaves(|leaf| {
+            let mut order = order.borrow_mut();
+            let first = order.len() as u32;
+            order.extend(leaf.iter().map(|b| b.strip));
+            StripRange {
+                first,
+                count: leaf.len() as u32,
+            }
+        });
+        let mut strips = strips.reordered(&order.into_inner());
+        // The vertex buffer in the order the strips first use it, so that a leaf's
+        // corners are near each other in memory.
+        let mut new_index = vec![u32::MAX; positions.len()];
+        let mut reordered = Vec::with_capacity(positions.len());
+        for v in &mut strips.indices {
+            let slot = &mut new_index[*v as usize];
+            if *slot == u32::MAX {
+                *slot = reordered.len() as u32;
+                reordered.push(positions[*v as usize]);
+            }
+            *v = *slot;
+        }
+        bvh.build_seconds = start.elapsed().as_secs_f64();
+        Ok(Self {
+            bvh,
+            strips,
+            positions: reordered,
+            inside,
+        })
+    }
+
+    /// Figures of the top BVH.
+    pub fn stats(&self) -> BvhStats {
+        self.bvh.stats()
+    }
+
+    /// Bytes of the hierarchy: the top BVH's nodes and leaf ranges.
+    pub fn hierarchy_bytes(&self) -> usize {
+        self.bvh.stats().node_bytes + std::mem::size_of_val(self.bvh.primitives.as_slice())
+    }
+
+    /// Bytes of the strips' topology ([`Strips::bytes`]).
+    pub fn topology_bytes(&self) -> usize {
+        self.strips.bytes()
+    }
+
+    /// Bytes of the shared vertex buffer (f32 positions).
+    pub fn position_bytes(&self) -> usize {
+        12 * self.positions.len()
+    }
+
+    /// Seconds the build took.
+    pub fn build_seconds(&self) -> f64 {
+        self.bvh.build_seconds
+    }
+
+    /// Decode strip `s` into `buffer`; returns its triangles. The buffer is not
+    /// zero-filled per ray (that costs as much as a traversal), so only the decoded
+    /// prefix is read.
+    #[inline(always)]
+    fn decode<'b>(&self, s: usize, buffer: &'b mut Decoded) -> &'b [Triangle] {
+        let first = self.strips.triangles_of(s).start;
+        let mut n = 0;
+        self.strips.for_each_triangle(s, |k, t| {
+            buffer.0[k - first].write(Triangle::new(
+                t.map(|v| self.positions[v as usize]),
+                self.strips.triangle_source[k],
+            ));
+            n += 1;
+        });
+        // SAFETY: `for_each_triangle` visits the strip's `n` ≤ MAX_TRACED_LENGTH
+        // triangles at positions 0..n (checked in `build`), each written above.
+        unsafe { std::slice::from_raw_parts(buffer.0.as_ptr().cast::<Triangle>(), n) }
+    }
+
+    /// Test triangles `range` of a decoded strip; `f` tests one block and returns
+    /// whether to stop.
+    #[inline(always)]
+    fn visit<C: Counters>(
+        &self,
+        triangles: &[Triangle],
+        query: &RayQuery,
+        t_max: &mut f32,
+        counters: &mut C,
+        mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
+    ) -> bool {
+        if self.inside == Inside::Flat || triangles.len() <= 8 {
+            for chunk in triangles.chunks(4) {
+                let block = Triangle4::new(chunk);
+                block.count_tests(counters);
+                if f(&block, t_max) {
+                    return true;
+                }
+            }
+            return false;
+        }
+        // The implicit balanced hierarchy, nearest half first.
+        let mut stack = [(0usize, 0usize, 0.0f32); 16];
+        let mut len = 1;
+        stack[0] = (0, triangles.len(), 0.0);
+        while len > 0 {
+            len -= 1;
+            let (lo, hi, entry) = stack[len];
+            if entry > *t_max {
+                continue;
+            }
+            if hi - lo <= 8 {
+                for chunk in triangles[lo..hi].chunks(4) {
+                    let block = Triangle4::new(chunk);
+                    block.count_tests(counters);
+                    if f(&block, t_max) {
+                        return true;
+                    }
+                }
+                continue;
+            }
+            let mid = (lo + hi) / 2;
+            counters.box_tests(2);
+            let near = |r: &[Triangle]| box_entry(&corners_box(r), query, *t_max);
+            let (a, b) = (near(&triangles[lo..mid]), near(&triangles[mid..hi]));
+            let mut push = |lo, hi, e: Option<f32>| {
+                if let Some(e) = e {
+                    stack[len] = (lo, hi, e);
+                    len += 1;
+                }
+            };
+            // Farther first, so that the nearer pops next.
+            if a.unwrap_or(f32::INFINITY) <= b.unwrap_or(f32::INFINITY) {
+                push(mid, hi, b);
+                push(lo, mid, a);
+            } else {
+                push(lo, mid, a);
+                push(mid, hi, b);
+            }
+        }
+        false
+    }
+
+    #[inline(always)]
+    fn intersect_with<S: Isa, C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+        let query = RayQuery::new(ray);
+        let mut hit = Hit::MISS;
+        hit.t = ray.t_max;
+        let mut buffer = Decoded::new();
+        let mut t_max = ray.t_max;
+        let mut found = false;
+        traverse::closest_hit::<S, _, C>(
+            &self.bvh,
+            &query,
+            &mut t_max,
+            counters,
+            |leaf, t_max, counters| {
+                let before = found;
+                for s in leaf[0].first..leaf[0].first + leaf[0].count {
+                    let triangles = self.decode(s as usize, &mut buffer);
+                    self.visit(triangles, &query, t_max, counters, |block, t_max| {
+                        if block.intersect_into(&query, &mut hit) {
+                            *t_max = hit.t;
+                            found = true;
+                        }
+                        false
+                    });
+                }
+                found != before
+            },
+        );
+        if found {
+            hit.instance = 0;
+            hit.geometry = 0;
+            hit
+        } else {
+            Hit::MISS
+        }
+    }
+
+    #[inline(always)]
+    fn occluded_with<S: Isa, C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        let query = RayQuery::new(ray);
+        let mut buffer = Decoded::new();
+        traverse::any_hit::<S, _, C>(
+            &self.bvh,
+            &query,
+            ray.t_max,
+            counters,
+            |leaf, t_max, counters| {
+                let mut t = t_max;
+                (leaf[0].first..leaf[0].first + leaf[0].count).any(|s| {
+                    let triangles = self.decode(s as usize, &mut buffer);
+                    self.visit(triangles, &query, &mut t, counters, |block, t_max| {
+                        block.occludes(&query, *t_max)
+                    })
+                })
+            },
+        )
+    }
+}
+
+/// The box of decoded triangles.
+#[inline(always)]
+fn corners_box(triangles: &[Triangle]) -> Aabb {
+    let mut b = Aabb::EMPTY;
+    for t in triangles {
+        b = b
+            .grown_by_point(t.v0)
+            .grown_by_point(t.v0 + t.e1)
+            .grown_by_point(t.v0 + t.e2);
+    }
+    b
+}
+
+/// Where the ray enters `b` within `(t_min, t_max)`: the slab test, its exit distance
+/// scaled by 1 + 2γ₃ as the traversal's is, so that rounding never culls a touched box.
+#[inline(always)]
+fn box_entry(b: &Aabb, query: &RayQuery, t_max: f32) -> Option<f32> {
+    let t0 = (b.min - query.origin) * query.inverse_direction;
+    let t1 = (b.max - query.origin) * query.inverse_direction;
+    let enter = t0.min(t1).max_element().max(query.t_min);
+    let leave = (t0.max(t1).min_element() * super::ROBUST_FAR_SCALE).min(t_max);
+    (enter <= leave).then_some(enter)
+}
+
+struct Closest<'a, C> {
+    accel: &'a StripAccel,
+    ray: &'a Ray,
+    counters: &'a mut C,
+}
+
+impl<C: Counters> Kernel for Closest<'_, C> {
+    type Output = Hit;
+    #[inline(always)]
+    fn run<S: Isa>(self) -> Hit {
+        self.accel.intersect_with::<S, C>(self.ray, self.counters)
+    }
+}
+
+struct Occluded<'a, C> {
+    accel: &'a StripAccel,
+    ray: &'a Ray,
+    counters: &'a mut C,
+}
+
+impl<C: Counters> Kernel for Occluded<'_, C> {
+    type Output = bool;
+    #[inline(always)]
+    fn run<S: Isa>(self) -> bool {
+        self.accel.occluded_with::<S, C>(self.ray, self.counters)
+    }
+}
+
+impl Tracer for StripAccel {
+    fn intersect<C: Counters>(&self, ray: &Ray, counters: &mut C) -> Hit {
+        dispatch(Closest {
+            accel: self,
+            ray,
+            counters,
+        })
+    }
+
+    fn occluded<C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
+        dispatch(Occluded {
+            accel: self,
+            ray,
+            counters,
+        })
+    }
+}
