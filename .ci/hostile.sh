@@ -19,6 +19,7 @@ subcommands=(
   "render -o $work/out.png --size 64x48"
   "convert $work/out.glb"
   "optimize -o $work/optimized.glb --size 64x64 --runs 1"
+  "strip -o $work/strips.ply"
 )
 checked=0 failed=0
 for file in *.obj *.ply *.gltf *.glb *.stl; do
