@@ -20,6 +20,17 @@ pub fn alternate<T>(
     seconds
 }
 
+/// The share of rays whose first hit is the same triangle id in `hits` as in
+/// `reference` (misses agree with misses).
+pub fn same_triangle_share(hits: &[rtmesh::trace::Hit], reference: &[rtmesh::trace::Hit]) -> f64 {
+    let same = hits
+        .iter()
+        .zip(reference)
+        .filter(|(a, b)| a.triangle == b.triangle)
+        .count();
+    same as f64 / hits.len().max(1) as f64
+}
+
 /// Seconds `f` takes once.
 pub fn seconds(f: impl FnOnce()) -> f64 {
     let start = std::time::Instant::now();

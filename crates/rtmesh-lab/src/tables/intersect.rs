@@ -104,12 +104,7 @@ pub fn intersect_rows(
             } else {
                 measure_without_bvh(kind, simd, &soa, &work.rays, packet, runs)
             };
-            let same = hits
-                .iter()
-                .zip(&base_hits)
-                .filter(|(a, b)| a.triangle == b.triangle)
-                .count() as f64
-                / hits.len().max(1) as f64;
+            let same = crate::harness::same_triangle_share(&hits, &base_hits);
             let mrays = work.rays.len() as f64 / seconds / 1e6;
             rows.push(IntersectRow {
                 mesh: mesh.to_owned(),

@@ -3,7 +3,7 @@
 //! traced through triangle leaves and through each method's pair leaves in alternating
 //! rounds, with differences against `window:2`.
 
-use crate::harness::{alternate, median, seconds};
+use crate::harness::{alternate, median, same_triangle_share, seconds};
 use rtmesh::bvh::BuildSettings;
 use rtmesh::pair::{PairMethod, PairSettings, Pairing};
 use rtmesh::progress::Progress;
@@ -164,12 +164,7 @@ pub fn pairing_rows(
             .zip(&times)
             .map(|(config, times)| {
                 let hits = config.leaves.closest(&work.rays);
-                let same = hits
-                    .iter()
-                    .zip(&reference)
-                    .filter(|(a, b)| a.triangle == b.triangle)
-                    .count() as f64
-                    / work.rays.len().max(1) as f64;
+                let same = same_triangle_share(&hits, &reference);
                 let counted = config.leaves.counted(&work);
                 progress.advance(2);
                 (counted, work.rays.len() as f64 / median(times) / 1e6, same)

@@ -6,7 +6,7 @@
 //! triangle tests per ray, Mrays/s, and the share of rays whose first hit is the same
 //! input triangle as through triangle leaves.
 
-use crate::harness::{alternate, median, seconds};
+use crate::harness::{alternate, median, same_triangle_share, seconds};
 use rtmesh::bvh::BuildSettings;
 use rtmesh::pair::PairMethod;
 use rtmesh::progress::Progress;
@@ -212,12 +212,7 @@ pub fn strip_rows(
         });
         for (config, times) in configs.iter().zip(&times) {
             let hits = config.leaves.closest(&work.rays);
-            let same = hits
-                .iter()
-                .zip(&reference)
-                .filter(|(a, b)| a.triangle == b.triangle)
-                .count() as f64
-                / work.rays.len().max(1) as f64;
+            let same = same_triangle_share(&hits, &reference);
             let counted = config.leaves.counted(&work);
             progress.advance(2);
             rows.push(StripRow {
