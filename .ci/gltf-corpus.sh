@@ -35,6 +35,10 @@ run repair "$morph" --split-elongated --force-split -o "$out/morph-split.glb" --
 run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
 run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
 run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0
+# `strip`: TRIANGLE_STRIP primitives, joined by degenerate triangles.
+run strip "$data/2CylinderEngine.glb" -o "$out/strips-engine.glb"
+run strip "$data/animated/BCN_Epileptic.glb" -o "$out/strips-skinned.glb"
+run strip builtin:room -o "$out/strips-room.gltf"
 # `optimize`, the main job: every glTF/GLB of the library as itself, the OBJ scenes
 # with materials as GLB, and the skinned models as .gltf.
 run optimize "$data/2CylinderEngine.glb" "$data/animated" "$data/sponza_dabrovic.obj" "$data/spot.obj" "$data/conference.obj" -o "$out/optimized" --format glb --size 0x0 2> /dev/null

@@ -612,6 +612,9 @@ fn strip_and_bench_strips_keys_and_files() {
     for (method, ext) in [("sah", "ply"), ("sah", "rts"), ("meshopt", "ply")] {
         let out = dir.join(format!("grid-{method}.{ext}"));
         let mut expected: Vec<&str> = keys.to_vec();
+        if ext == "ply" {
+            expected.push("degenerate_not_written");
+        }
         if method == "meshopt" {
             expected.push("native_indices_per_triangle");
         }
@@ -638,13 +641,36 @@ fn strip_and_bench_strips_keys_and_files() {
             assert!(bytes.starts_with(b"RTS1"));
         }
     }
-    let gltf = dir.join("grid.glb");
-    let out = rtmesh(&["strip", "builtin:grid", "-o", gltf.to_str().unwrap()]);
+    // glTF keeps the scene: the room's instances and materials, its surface whole.
+    let gltf = dir.join("room.glb");
+    let mut expected: Vec<&str> = keys.to_vec();
+    expected.push("degenerate_not_written");
+    let report = assert_keys(
+        &[
+            "strip",
+            "builtin:room",
+            "-o",
+            gltf.to_str().unwrap(),
+            "--json",
+        ],
+        &expected,
+    );
+    let info = assert_keys_any(&["info", gltf.to_str().unwrap(), "--json"]);
+    let source = assert_keys_any(&["info", "builtin:room", "--json"]);
+    assert_eq!(report[0]["degenerate_not_written"], 0);
+    assert_eq!(info["triangles"], source["triangles"], "{info}");
+    for key in ["meshes", "instances", "instanced_triangles"] {
+        assert!(source[key].as_u64().is_some_and(|n| n > 0), "{key}");
+        assert_eq!(info[key], source[key], "{key}");
+    }
+    let bad = dir.join("grid.stl");
+    let out = rtmesh(&["strip", "builtin:grid", "-o", bad.to_str().unwrap()]);
     assert_eq!(
         out.status.code(),
         Some(1),
-        "glTF strips are refused, not half-written"
+        "STL cannot hold strips: refused, not half-written"
     );
+    assert!(!bad.exists());
     let rows = assert_keys(
         &[
             "bench",

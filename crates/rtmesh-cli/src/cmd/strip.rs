@@ -16,21 +16,25 @@ use std::path::PathBuf;
 /// `sah` (Strip-RT, Lauterbach's ReduceM stripification) merges sequences along an SAH
 /// partition of the mesh, balanced in length, so that every strip and every half of
 /// one is compact: strips a ray tracer can trace directly. `meshopt` is meshoptimizer's
-/// rasterization stripifier, the baseline. The scene is flattened to world space and
-/// welded exactly (equal positions and attributes) first. rtmesh's strip format, bit
+/// rasterization stripifier, the baseline. Vertices are welded exactly (equal
+/// positions and attributes) first; the scene is flattened to world space except for
+/// glTF output, which keeps it. rtmesh's strip format, bit
 /// by bit, is in crates/rtmesh/src/strip/mod.rs.
 ///
 /// Examples:
 ///   rtmesh strip dragon.ply
 ///   rtmesh strip dragon.ply -o dragon-strips.ply    # a PLY tristrips element
+///   rtmesh strip scene.glb -o scene-strips.glb      # TRIANGLE_STRIP primitives
 ///   rtmesh strip dragon.ply -o dragon.rts           # rtmesh's compact format
 ///   rtmesh strip bunny.obj --method meshopt --json
 #[derive(clap::Args)]
 pub struct Args {
     /// The mesh file, or builtin:NAME.
     mesh: String,
-    /// Write the stripped mesh: .ply (a `tristrips` element with −1 restarts, every
-    /// vertex attribute kept) or .rts (rtmesh's strip format with positions).
+    /// Write the stripped mesh: .ply (a `tristrips` element with −1 restarts), .gltf or
+    /// .glb (`TRIANGLE_STRIP` primitives joined by degenerate triangles, the scene's
+    /// nodes, materials and every attribute kept), or .rts (rtmesh's strip format with
+    /// positions).
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// sah (Strip-RT) or meshopt (meshoptimizer's stripifier, cut at --max-length).
@@ -55,6 +59,11 @@ pub struct Report {
     /// meshoptimizer's own output, restart indices included (meshopt only).
     #[serde(skip_serializing_if = "Option::is_none")]
     native_indices_per_triangle: Option<f64>,
+    /// Triangles that name a vertex twice: a rasterization strip cannot tell them from
+    /// its joins, so the .ply and glTF files leave them out (readers drop such
+    /// triangles of a strip). They cover no surface; .rts keeps them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    degenerate_not_written: Option<usize>,
     /// Where the strips were written.
     #[serde(skip_serializing_if = "Option::is_none")]
     output: Option<PathBuf>,
@@ -82,33 +91,63 @@ pub fn strips_by(
 /// Strip, write, report.
 pub fn run(args: Args) -> Result<()> {
     let scene = load(&args.mesh)?;
-    let mesh = weld_exact(&scene.flatten()).mesh;
-    let start = std::time::Instant::now();
-    let (strips, native) = strips_by(&mesh, &args.method, args.max_length as usize)?;
-    let seconds = start.elapsed().as_secs_f64();
-    if let Some(path) = &args.output {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .unwrap_or("")
-            .to_ascii_lowercase();
-        match ext.as_str() {
-            "ply" => rtmesh::io::write_ply_strips(&mesh, &strips.to_standard(), path)?,
-            "rts" => std::fs::write(path, strips.to_rts(&mesh.positions))
-                .with_context(|| format!("{}: cannot write", path.display()))?,
-            _ => bail!(
-                "{}: strips are written as .ply (tristrips) or .rts; glTF TRIANGLE_STRIP output is not built yet",
-                path.display()
-            ),
+    let ext = args
+        .output
+        .as_ref()
+        .and_then(|p| p.extension())
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    let max_length = args.max_length as usize;
+    let (strips, native, seconds) = if matches!(ext.as_str(), "gltf" | "glb") {
+        // glTF keeps the scene: each geometry is stripped on its own.
+        let mut scene = scene.clone();
+        let start = std::time::Instant::now();
+        let mut all = Vec::new();
+        let mut native = None;
+        for mesh in &mut scene.meshes {
+            *mesh = weld_exact(mesh).mesh;
+            let (strips, n) = strips_by(mesh, &args.method, max_length)?;
+            native = n.map(|n| n + native.unwrap_or(0));
+            all.push(strips);
         }
-    }
+        let seconds = start.elapsed().as_secs_f64();
+        let path = args.output.as_ref().expect("an output has an extension");
+        rtmesh::io::write_gltf_strips(&scene, &all, path)?;
+        (all, native, seconds)
+    } else {
+        let mesh = weld_exact(&scene.flatten()).mesh;
+        let start = std::time::Instant::now();
+        let (strips, native) = strips_by(&mesh, &args.method, max_length)?;
+        let seconds = start.elapsed().as_secs_f64();
+        if let Some(path) = &args.output {
+            match ext.as_str() {
+                "ply" => rtmesh::io::write_ply_strips(&mesh, &strips.to_standard(), path)?,
+                "rts" => std::fs::write(path, strips.to_rts(&mesh.positions))
+                    .with_context(|| format!("{}: cannot write", path.display()))?,
+                _ => bail!(
+                    "{}: strips are written as .ply (a tristrips element), .gltf or .glb (TRIANGLE_STRIP primitives) or .rts",
+                    path.display()
+                ),
+            }
+        }
+        (vec![strips], native, seconds)
+    };
+    let figures = StripReport::of_all(&strips, seconds);
+    let degenerate_not_written = matches!(ext.as_str(), "ply" | "gltf" | "glb").then(|| {
+        strips
+            .iter()
+            .flat_map(Strips::decode)
+            .filter(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+            .count()
+    });
     let report = Report {
         mesh: args.mesh,
         method: args.method,
         max_length: args.max_length,
-        native_indices_per_triangle: native
-            .map(|n| n as f64 / strips.triangle_count().max(1) as f64),
-        strips: StripReport::of(&strips, seconds),
+        native_indices_per_triangle: native.map(|n| n as f64 / figures.triangles.max(1) as f64),
+        strips: figures,
+        degenerate_not_written,
         output: args.output,
     };
     emit(&report, args.json, |r| {
@@ -136,6 +175,9 @@ pub fn run(args: Args) -> Result<()> {
         }
         if let Some(path) = &r.output {
             println!("  wrote        {}", path.display());
+        }
+        if let Some(n) = r.degenerate_not_written.filter(|&n| n > 0) {
+            println!("  left out     {n} triangles that name a vertex twice (a strip cannot hold them apart from its joins; they cover no surface)");
         }
     })
 }

@@ -270,6 +270,25 @@ pub fn write_ply_strips(mesh: &TriMesh, strips: &[Vec<u32>], path: &Path) -> Res
     ply::write_strips(mesh, strips, path).map_err(|e| MeshError::io(path, e))
 }
 
+/// Write `scene` as glTF or GLB (by `path`'s extension) with each geometry's triangles
+/// as `TRIANGLE_STRIP` primitives: `strips[m]` holds all the strips of mesh `m` (see
+/// [`crate::strip`]); everything else is written as [`write`] writes it.
+pub fn write_gltf_strips(
+    scene: &Scene,
+    strips: &[crate::strip::Strips],
+    path: &Path,
+) -> Result<WriteNotes, MeshError> {
+    let format = Format::from_path(path)?;
+    if !matches!(format, Format::Gltf | Format::Glb) {
+        return Err(MeshError::invalid(
+            path,
+            "strips as primitives are written to .gltf or .glb".to_owned(),
+        ));
+    }
+    gltf::write_strips(scene, strips, path, format == Format::Glb)
+        .map_err(|e| MeshError::io(path, e))
+}
+
 /// Every reader ends here: no index may point past its mesh's vertices, no instance past
 /// the meshes.
 fn check_indices(path: &Path, scene: &Scene) -> Result<(), MeshError> {

@@ -390,8 +390,9 @@ pub struct Scene {
 /// file).
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct ReadNotes {
-    /// Triangles of PLY `tristrips` that name a vertex twice: the swaps and joins that
-    /// stitch a generalized strip together, which cover no surface. Dropped.
+    /// Triangles of PLY `tristrips` and glTF `TRIANGLE_STRIP` primitives that name a
+    /// vertex twice: the swaps and joins that stitch a generalized strip together, which
+    /// cover no surface. Dropped.
     pub strip_degenerates_dropped: usize,
     /// OBJ `l` (polyline) statements: not triangles, so ignored.
     pub ignored_lines: usize,

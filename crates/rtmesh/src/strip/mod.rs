@@ -188,6 +188,24 @@ impl Strips {
     }
 }
 
+/// Rasterization strips joined into one by degenerate triangles, for formats with no
+/// restart index (glTF): `… a b` + `b c` + `c d e …`, with one more `c` when the next
+/// strip would start at an odd triangle (which would flip its winding).
+pub fn join_standard(lists: &[Vec<u32>]) -> Vec<u32> {
+    let mut out: Vec<u32> = Vec::with_capacity(lists.iter().map(|l| l.len() + 3).sum());
+    for list in lists.iter().filter(|l| l.len() >= 3) {
+        if let Some(&last) = out.last() {
+            out.push(last);
+            out.push(list[0]);
+            if out.len() % 2 == 1 {
+                out.push(list[0]);
+            }
+        }
+        out.extend_from_slice(list);
+    }
+    out
+}
+
 /// Whether `a` is a rotation of `b` (the same triangle with the same winding).
 pub fn same_winding(a: [u32; 3], b: [u32; 3]) -> bool {
     a == b || a == [b[1], b[2], b[0]] || a == [b[2], b[0], b[1]]
@@ -234,6 +252,27 @@ pub struct StripReport {
 }
 
 impl StripReport {
+    /// The figures of several meshes' strips together, made in `seconds`.
+    pub fn of_all(all: &[Strips], seconds: f64) -> Self {
+        let mut total = Self::default();
+        let mut bytes = 0;
+        for strips in all {
+            total.triangles += strips.triangle_count();
+            total.strips += strips.len();
+            total.indices += strips.indices.len();
+            bytes += strips.bytes();
+        }
+        let triangles = total.triangles.max(1) as f64;
+        Self {
+            indices_per_triangle: total.indices as f64 / triangles,
+            mean_length: total.triangles as f64 / total.strips.max(1) as f64,
+            restarts: total.strips.saturating_sub(1),
+            bytes_per_triangle: bytes as f64 / triangles,
+            seconds,
+            ..total
+        }
+    }
+
     /// The figures of `strips`, made in `seconds`.
     pub fn of(strips: &Strips, seconds: f64) -> Self {
         let triangles = strips.triangle_count();

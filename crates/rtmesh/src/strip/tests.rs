@@ -211,3 +211,52 @@ fn traced_strips_hit_what_triangles_hit() {
         }
     }
 }
+
+/// The triangles of `mesh` that name three vertices, each as its rotation starting at
+/// its smallest index, sorted: the same surface with the same winding.
+fn surface(mesh: &TriMesh) -> Vec<[u32; 3]> {
+    let mut out: Vec<[u32; 3]> = mesh
+        .triangles
+        .iter()
+        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+        .map(|&t| {
+            let r = (0..3).min_by_key(|&k| t[k]).unwrap();
+            [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
+        })
+        .collect();
+    out.sort_unstable();
+    out
+}
+
+#[test]
+fn strips_written_as_gltf_and_ply_read_back_as_the_same_surface() {
+    let dir = std::env::temp_dir().join(format!("rtmesh-strip-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut scene = scenes::room();
+    for mesh in &mut scene.meshes {
+        *mesh = crate::mesh::weld_exact(mesh).mesh;
+    }
+    let strips: Vec<Strips> = scene
+        .meshes
+        .iter()
+        .map(|m| stripify(m, &StripSettings::default()))
+        .collect();
+    for name in ["room.glb", "room.gltf"] {
+        let path = dir.join(name);
+        crate::io::write_gltf_strips(&scene, &strips, &path).unwrap();
+        let back = crate::io::read(&path).unwrap();
+        assert_eq!(back.meshes.len(), scene.meshes.len());
+        for (a, b) in scene.meshes.iter().zip(&back.meshes) {
+            assert_eq!(surface(a), surface(b), "{name}: {}", a.name);
+            assert_eq!(a.positions, b.positions);
+        }
+        assert_eq!(back.instances.len(), scene.instances.len());
+    }
+    let flat = crate::mesh::weld_exact(&scene.flatten()).mesh;
+    let flat_strips = stripify(&flat, &StripSettings::default());
+    let path = dir.join("room.ply");
+    crate::io::write_ply_strips(&flat, &flat_strips.to_standard(), &path).unwrap();
+    let back = crate::io::read(&path).unwrap();
+    assert_eq!(surface(&flat), surface(&back.meshes[0]));
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -10,7 +10,7 @@
 
 mod write;
 
-pub(super) use write::write;
+pub(super) use write::{write, write_strips};
 
 use super::{CountingReader, MeshError};
 use crate::mesh::{
@@ -175,7 +175,8 @@ pub(super) fn read<R: BufRead>(
                 Some(indices) => indices.into_u32().collect(),
                 None => (0..position_accessor.count() as u32).collect(),
             };
-            let triangles = assemble(primitive.mode(), &corners);
+            let (triangles, dropped) = assemble(primitive.mode(), &corners);
+            scene.read_notes.strip_degenerates_dropped += dropped;
             let material = primitive
                 .material()
                 .index()
@@ -430,19 +431,24 @@ fn place_nodes(
 }
 
 /// Triangles from a primitive's corner list, in order.
-fn assemble(mode: Mode, corners: &[u32]) -> Vec<[u32; 3]> {
-    match mode {
-        Mode::TriangleStrip => corners
-            .windows(3)
-            .enumerate()
-            .map(|(i, w)| {
+fn assemble(mode: Mode, corners: &[u32]) -> (Vec<[u32; 3]>, usize) {
+    let triangles: Vec<[u32; 3]> = match mode {
+        Mode::TriangleStrip => {
+            // A strip's triangles that name a vertex twice are its joins and swaps
+            // (glTF has no restart index): dropped and counted, as PLY tristrips' are.
+            let all = corners.windows(3).enumerate().map(|(i, w)| {
                 if i % 2 == 0 {
                     [w[0], w[1], w[2]]
                 } else {
                     [w[1], w[0], w[2]]
                 }
-            })
-            .collect(),
+            });
+            let kept: Vec<[u32; 3]> = all
+                .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+                .collect();
+            let dropped = corners.len().saturating_sub(2) - kept.len();
+            return (kept, dropped);
+        }
         Mode::TriangleFan => corners
             .windows(2)
             .skip(1)
@@ -452,7 +458,8 @@ fn assemble(mode: Mode, corners: &[u32]) -> Vec<[u32; 3]> {
             .chunks_exact(3)
             .map(|c| [c[0], c[1], c[2]])
             .collect(),
-    }
+    };
+    (triangles, 0)
 }
 
 fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> Result<(), String> {

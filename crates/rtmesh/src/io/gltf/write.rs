@@ -559,6 +559,29 @@ pub(in crate::io) fn write(
     path: &Path,
     binary: bool,
 ) -> std::io::Result<WriteNotes> {
+    write_with(scene, None, path, binary)
+}
+
+/// [`write`] with each geometry's triangles as `TRIANGLE_STRIP` primitives: `strips[m]`
+/// holds the strips of `scene.meshes[m]`, all of them. glTF has no restart index, so
+/// a primitive's strips are joined by degenerate triangles
+/// ([`crate::strip::join_standard`]): two or three indices a join, smaller than a
+/// primitive and an accessor per strip.
+pub(in crate::io) fn write_strips(
+    scene: &Scene,
+    strips: &[crate::strip::Strips],
+    path: &Path,
+    binary: bool,
+) -> std::io::Result<WriteNotes> {
+    write_with(scene, Some(strips), path, binary)
+}
+
+fn write_with(
+    scene: &Scene,
+    strips: Option<&[crate::strip::Strips]>,
+    path: &Path,
+    binary: bool,
+) -> std::io::Result<WriteNotes> {
     let source = match scene.document.as_deref() {
         Some(Document::Gltf(document)) => Some(document),
         _ => None,
@@ -591,6 +614,22 @@ pub(in crate::io) fn write(
         };
         let mut streams = Streams::new(&mesh);
         let mut primitives = Vec::new();
+        // Each primitive's strips, joined (a strip never spans two primitives).
+        let strip_lists = strips.and_then(|all| all.get(index)).map(|strips| {
+            let mut lists: BTreeMap<(u32, u32), Vec<Vec<u32>>> = BTreeMap::new();
+            for (s, list) in strips.to_standard().into_iter().enumerate() {
+                let t = strips.triangle_source[strips.triangles_of(s).start] as usize;
+                let key = (
+                    mesh.group_of(t),
+                    mesh.material_ids.get(t).copied().unwrap_or(0),
+                );
+                lists.entry(key).or_default().push(list);
+            }
+            lists
+                .into_iter()
+                .map(|(key, lists)| (key, crate::strip::join_standard(&lists)))
+                .collect::<BTreeMap<_, _>>()
+        });
         for triangles in primitive_triangles(&mesh) {
             let start = triangles[0] as usize;
             let key = |t: usize| {
@@ -656,14 +695,17 @@ pub(in crate::io) fn write(
                     }
                 }
             }
-            primitive.indices = Some(indices(
-                &mut out,
-                &triangles
+            let list: Vec<u32> = match strip_lists.as_ref().and_then(|l| l.get(&key(start))) {
+                Some(list) => {
+                    primitive.mode = Checked::Valid(json::mesh::Mode::TriangleStrip);
+                    list.clone()
+                }
+                None => triangles
                     .iter()
-                    .map(|&t| mesh.triangles[t as usize])
-                    .collect::<Vec<_>>(),
-                mesh.positions.len(),
-            ));
+                    .flat_map(|&t| mesh.triangles[t as usize])
+                    .collect(),
+            };
+            primitive.indices = Some(indices(&mut out, &list, mesh.positions.len()));
             primitives.push(primitive);
         }
         notes.normals_renormalized += streams.changed;
@@ -772,33 +814,25 @@ fn primitive_triangles(mesh: &TriMesh) -> Vec<Vec<u32>> {
     out
 }
 
-/// An index accessor for `triangles` (u16 when the vertices allow, else u32).
-fn indices(out: &mut Output, triangles: &[[u32; 3]], vertices: usize) -> Index<json::Accessor> {
+/// An index accessor for the flat index list `list` (u16 when the vertices allow, else
+/// u32).
+fn indices(out: &mut Output, list: &[u32], vertices: usize) -> Index<json::Accessor> {
     use json::accessor::ComponentType as C;
     let (component, bytes): (C, Vec<u8>) = if vertices <= u16::MAX as usize {
         (
             C::U16,
-            triangles
-                .iter()
-                .flatten()
+            list.iter()
                 .flat_map(|&v| (v as u16).to_le_bytes())
                 .collect(),
         )
     } else {
-        (
-            C::U32,
-            triangles
-                .iter()
-                .flatten()
-                .flat_map(|v| v.to_le_bytes())
-                .collect(),
-        )
+        (C::U32, list.iter().flat_map(|v| v.to_le_bytes()).collect())
     };
     let view = out.view(&bytes, None, Some(json::buffer::Target::ElementArrayBuffer));
     out.accessor(json::Accessor {
         buffer_view: Some(view),
         byte_offset: None,
-        count: USize64::from(triangles.len() * 3),
+        count: USize64::from(list.len()),
         component_type: Checked::Valid(json::accessor::GenericComponentType(component)),
         extensions: None,
         extras: None,
