@@ -589,7 +589,25 @@ fn cluster_and_dynamic_keys() {
     }
     let unbuilt = rtmesh(&["cluster", "builtin:blob", "--method", "contract"]);
     assert_eq!(unbuilt.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&unbuilt.stderr).contains("only grow is built"));
+    assert!(String::from_utf8_lossy(&unbuilt.stderr).contains("contract is not yet"));
+    // meshoptimizer's clusters: every triangle in one, within MaxCount.
+    let theirs = assert_keys(
+        &["cluster", "builtin:blob", "--method", "meshopt", "--json"],
+        &[
+            "mesh",
+            "method",
+            "triangles",
+            "clusters",
+            "mean_triangles",
+            "mean_vertices_per_triangle",
+            "bytes",
+            "indexed_bytes",
+            "disconnected",
+            "seconds",
+        ],
+    );
+    assert_eq!(theirs[0]["triangles"], 99892);
+    assert!(theirs[0]["mean_triangles"].as_f64().unwrap() <= 32.0);
 }
 
 #[test]
@@ -715,4 +733,46 @@ fn assert_keys_any(args: &[&str]) -> Value {
         String::from_utf8_lossy(&out.stderr)
     );
     serde_json::from_slice(&out.stdout).expect("one JSON object")
+}
+
+#[test]
+fn animate_writes_every_frame_readable() {
+    let dir = scratch("animate");
+    let report = assert_keys(
+        &[
+            "animate",
+            "builtin:blob",
+            "--motion",
+            "explode",
+            "--frames",
+            "3",
+            "-o",
+            dir.to_str().unwrap(),
+            "--format",
+            "ply",
+            "--json",
+        ],
+        &["mesh", "motion", "frames", "files", "seconds"],
+    );
+    let files = report[0]["files"].as_array().unwrap();
+    assert_eq!(files.len(), 3);
+    let rest = assert_keys_any(&["info", "builtin:blob", "--json"]);
+    let mut bounds = Vec::new();
+    for file in files {
+        let info = assert_keys_any(&["info", file.as_str().unwrap(), "--json"]);
+        assert_eq!(info["triangles"], rest["triangles"]);
+        bounds.push(info["bounds"].clone());
+    }
+    assert_ne!(bounds[0], bounds[2], "the last frame moved");
+    let out = rtmesh(&[
+        "animate",
+        "builtin:blob",
+        "--motion",
+        "twist",
+        "-o",
+        dir.to_str().unwrap(),
+        "--format",
+        "xyz",
+    ]);
+    assert_eq!(out.status.code(), Some(1));
 }

@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use clap::ValueEnum;
 use rtmesh::animate::{Animation, Motion};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::cluster::{grow, ClusterAccel, Inside};
+use rtmesh::cluster::{ClusterAccel, Inside};
 use rtmesh::progress::Progress;
 use rtmesh::trace::measure::measure;
 use rtmesh::trace::{RayKind, SceneAccel, Workload};
@@ -55,7 +55,7 @@ pub struct Args {
     /// rebuild, refit or clusters.
     #[arg(long, value_enum, default_value = "clusters")]
     build: Build,
-    /// Clustering method (grow).
+    /// Clustering method: grow (Acc(k)) or meshopt (meshoptimizer's spatial clusters).
     #[arg(long, default_value = "grow")]
     method: String,
     /// MaxSize of the clusters.
@@ -134,7 +134,7 @@ pub fn run(args: Args) -> Result<()> {
     let settings = super::cluster::settings(&args.method, args.max_count, args.max_size)?;
     let (clusters, precompute_ms) = if args.build == Build::Clusters {
         let start = std::time::Instant::now();
-        let clusters = grow(&mesh, &settings);
+        let clusters = super::cluster::clusters_by(&mesh, &args.method, &settings);
         (Some(clusters), Some(1e3 * start.elapsed().as_secs_f64()))
     } else {
         (None, None)

@@ -1,6 +1,7 @@
 //! The subcommands, one file each: its clap arguments, a `run` that calls the library
 //! and builds a typed report, and the text printing of that report.
 
+pub mod animate;
 pub mod bench;
 pub mod cluster;
 pub mod convert;
@@ -49,6 +50,7 @@ enum Command {
     Cluster(cluster::Args),
     Strip(strip::Args),
     Dynamic(dynamic::Args),
+    Animate(animate::Args),
     Demo(demo::Args),
 }
 
@@ -70,6 +72,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Cluster(args) => cluster::run(args),
         Command::Strip(args) => strip::run(args),
         Command::Dynamic(args) => dynamic::run(args),
+        Command::Animate(args) => animate::run(args),
         Command::Demo(args) => demo::run(args),
     }
 }

@@ -43,6 +43,8 @@
 //! Cost: growing is O(T · F) for F candidates on a cluster's frontier (tens); a frame is
 //! O(T) for the boxes and triangle blocks plus a build over T / |k| boxes.
 
+pub mod meshopt;
+
 use crate::bvh::{BuildSettings, Bvh, Child, Primitive};
 use crate::geom::Aabb;
 use crate::mesh::{EdgeAdjacency, TriMesh, NO_EDGE};
@@ -120,6 +122,31 @@ impl Clusters {
         self.local_triangles[i].map(|l| vertices[l as usize])
     }
 
+    /// Append a cluster of `mesh`'s triangles `triangles` (at most 256 distinct
+    /// vertices), each stored with its corners in order.
+    pub fn push(&mut self, mesh: &TriMesh, triangles: &[u32]) {
+        if self.triangle_start.is_empty() {
+            self.triangle_start.push(0);
+            self.vertex_start.push(0);
+        }
+        let first = self.vertices.len();
+        for &t in triangles {
+            let local = mesh.triangles[t as usize].map(|v| {
+                let mine = &self.vertices[first..];
+                let at = mine.iter().position(|&w| w == v).unwrap_or_else(|| {
+                    self.vertices.push(v);
+                    self.vertices.len() - 1 - first
+                });
+                debug_assert!(at < 256, "a cluster holds at most 256 vertices");
+                at as u8
+            });
+            self.local_triangles.push(local);
+            self.input_triangle.push(t);
+        }
+        self.triangle_start.push(self.local_triangles.len() as u32);
+        self.vertex_start.push(self.vertices.len() as u32);
+    }
+
     /// Bytes of this storage: 3 per triangle (u8 indices), 4 per input triangle id, 4
     /// per cluster vertex, 8 per cluster (the two offsets).
     pub fn bytes(&self) -> usize {
@@ -166,6 +193,45 @@ impl ClusterReport {
             seconds,
         }
     }
+}
+
+/// Clusters of `clusters` whose triangles are not all connected through edges they
+/// share by position (none from [`grow`]; meshoptimizer's spatial clusters may be).
+pub fn disconnected(mesh: &TriMesh, clusters: &Clusters) -> usize {
+    let topology = mesh.topology();
+    let mut edges: std::collections::HashMap<[u32; 2], usize> = Default::default();
+    (0..clusters.len())
+        .filter(|&c| {
+            let range = clusters.triangles_of(c);
+            let mut parent: Vec<usize> = (0..range.len()).collect();
+            fn root(parent: &mut [usize], mut i: usize) -> usize {
+                while parent[i] != i {
+                    parent[i] = parent[parent[i]];
+                    i = parent[i];
+                }
+                i
+            }
+            edges.clear();
+            for (i, k) in range.clone().enumerate() {
+                let t = topology.triangles[clusters.input_triangle[k] as usize];
+                for side in 0..3 {
+                    let (a, b) = (t[side], t[(side + 1) % 3]);
+                    let edge = [a.min(b), a.max(b)];
+                    match edges.get(&edge) {
+                        Some(&j) => {
+                            let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+                            parent[ri] = rj;
+                        }
+                        None => {
+                            edges.insert(edge, i);
+                        }
+                    }
+                }
+            }
+            let r0 = root(&mut parent, 0);
+            (1..range.len()).any(|i| root(&mut parent, i) != r0)
+        })
+        .count()
 }
 
 /// The running figures of a growing cluster.
@@ -361,21 +427,7 @@ pub fn grow(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
     }
     merge_small(mesh, &adjacency, &mut groups, settings);
     for triangles in &groups {
-        let mut vertices: Vec<u32> = Vec::new();
-        for &t in triangles {
-            let local = mesh.triangles[t as usize].map(|v| {
-                let at = vertices.iter().position(|&w| w == v).unwrap_or_else(|| {
-                    vertices.push(v);
-                    vertices.len() - 1
-                });
-                at as u8
-            });
-            out.local_triangles.push(local);
-            out.input_triangle.push(t);
-        }
-        out.vertices.extend(&vertices);
-        out.triangle_start.push(out.local_triangles.len() as u32);
-        out.vertex_start.push(out.vertices.len() as u32);
+        out.push(mesh, triangles);
     }
     out
 }

@@ -124,3 +124,51 @@ fn check_frames(mesh: &TriMesh, clusters: &Clusters) {
         }
     }
 }
+
+#[test]
+fn meshopt_clusters_hold_every_triangle_once_within_limits() {
+    let mesh = crate::scenes::scan_blob(20_000, 3);
+    let settings = ClusterSettings::default();
+    let clusters = meshopt::spatial(&mesh, &settings);
+    let mut seen = vec![false; mesh.triangle_count()];
+    for c in 0..clusters.len() {
+        let range = clusters.triangles_of(c);
+        assert!(!range.is_empty() && range.len() <= settings.max_triangles);
+        assert!(clusters.vertices_of(c).len() <= settings.max_vertices);
+        for i in range {
+            let t = clusters.input_triangle[i] as usize;
+            assert!(!std::mem::replace(&mut seen[t], true), "triangle {t} twice");
+            assert_eq!(clusters.triangle(c, i), mesh.triangles[t], "winding kept");
+        }
+    }
+    assert!(seen.iter().all(|&s| s));
+    // grow's clusters are connected; meshoptimizer's need not be.
+    assert_eq!(disconnected(&mesh, &grow(&mesh, &settings)), 0);
+    let two_apart = TriMesh::new(
+        vec![
+            glam::Vec3::ZERO,
+            glam::Vec3::X,
+            glam::Vec3::Y,
+            glam::Vec3::Z,
+            glam::Vec3::ONE,
+            glam::Vec3::NEG_X,
+        ],
+        vec![[0, 1, 2], [3, 4, 5], [0, 2, 5]],
+    );
+    let mut hand = Clusters::default();
+    hand.push(&two_apart, &[0, 1]);
+    hand.push(&two_apart, &[2]);
+    assert_eq!(
+        disconnected(&two_apart, &hand),
+        1,
+        "[0, 1, 2] and [3, 4, 5] share no edge"
+    );
+    let mut joined = Clusters::default();
+    joined.push(&two_apart, &[0, 2]);
+    joined.push(&two_apart, &[1]);
+    assert_eq!(
+        disconnected(&two_apart, &joined),
+        0,
+        "[0, 1, 2] and [0, 2, 5] share (0, 2)"
+    );
+}
