@@ -24,6 +24,35 @@ pub enum Build {
     Refit,
     /// A BVH over the boxes of clusters found once on frame 0 (`rtmesh cluster`).
     Clusters,
+    /// Embree rebuilding at RTC_BUILD_QUALITY_LOW every frame (`--features embree`).
+    #[cfg(feature = "embree")]
+    #[value(name = "embree-low")]
+    #[serde(rename = "embree-low")]
+    EmbreeLow,
+    /// Embree rebuilding at RTC_BUILD_QUALITY_MEDIUM every frame.
+    #[cfg(feature = "embree")]
+    #[value(name = "embree-medium")]
+    #[serde(rename = "embree-medium")]
+    EmbreeMedium,
+    /// Embree refitting frame 0's BVH (RTC_BUILD_QUALITY_REFIT).
+    #[cfg(feature = "embree")]
+    #[value(name = "embree-refit")]
+    #[serde(rename = "embree-refit")]
+    EmbreeRefit,
+}
+
+impl Build {
+    /// The Embree quality this build stands for, if it is Embree's.
+    #[cfg(feature = "embree")]
+    fn embree(self) -> Option<rtmesh_lab::embree::Quality> {
+        use rtmesh_lab::embree::Quality;
+        match self {
+            Build::EmbreeLow => Some(Quality::Low),
+            Build::EmbreeMedium => Some(Quality::Medium),
+            Build::EmbreeRefit => Some(Quality::Refit),
+            _ => None,
+        }
+    }
 }
 
 /// What a cluster is inside the per-frame BVH.
@@ -52,7 +81,8 @@ pub struct Args {
     /// Frames, from the rest pose to the strongest motion.
     #[arg(long, default_value_t = 8)]
     frames: usize,
-    /// rebuild, refit or clusters.
+    /// rebuild, refit or clusters; with --features embree also embree-low, embree-medium
+    /// and embree-refit (Embree 3 on the same rays; its SAH is not known: NaN).
     #[arg(long, value_enum, default_value = "clusters")]
     build: Build,
     /// Clustering method: grow (Acc(k)) or meshopt (meshoptimizer's spatial clusters).
@@ -141,12 +171,47 @@ pub fn run(args: Args) -> Result<()> {
     };
     let bar = steps_bar(args.frames);
     let mut refitted: Option<SceneAccel> = None;
+    #[cfg(feature = "embree")]
+    let mut embree: Option<rtmesh_lab::embree::EmbreeScene> = None;
     let mut frames = Vec::with_capacity(args.frames);
     for f in 0..args.frames {
         bar.message(&format!("frame {f}"));
         let mut frame = mesh.clone();
         frame.positions = animation.positions(f as f32 / (args.frames.max(2) - 1) as f32);
         let frame_scene = Scene::from_mesh(frame);
+        #[cfg(feature = "embree")]
+        if let Some(quality) = args.build.embree() {
+            // Embree's own timing of its build or commit; SAH is not known for it.
+            let build_ms = match embree.as_mut() {
+                Some(e) => 1e3 * e.update_positions(0, &frame_scene.meshes[0].positions)?,
+                None => {
+                    let threads = rayon::current_num_threads();
+                    let e = rtmesh_lab::embree::EmbreeScene::build_dynamic(
+                        &frame_scene,
+                        quality,
+                        threads,
+                    )?;
+                    let ms = 1e3 * e.build_seconds;
+                    embree = Some(e);
+                    ms
+                }
+            };
+            let e = embree.as_ref().expect("built above");
+            let work = Workload::generate(kind, &frame_scene, e, args.size.0, args.size.1, 1);
+            let run = measure(e, &work, args.runs);
+            frames.push(Frame {
+                frame: f,
+                build_ms,
+                trace_ms: 1e3 * run.seconds,
+                mrays_per_s: run.mrays_per_s,
+                box_tests_per_ray: run.box_tests_per_ray,
+                tri_tests_per_ray: run.tri_tests_per_ray,
+                sah_cost: f32::NAN,
+                hit_checksum: run.hit_checksum,
+            });
+            bar.advance(1);
+            continue;
+        }
         let start = std::time::Instant::now();
         let accel = match args.build {
             Build::Rebuild => SceneAccel::build(&frame_scene, &BuildSettings::default()),
@@ -156,6 +221,10 @@ pub fn run(args: Args) -> Result<()> {
                     .unwrap_or_else(|| SceneAccel::build(&frame_scene, &BuildSettings::default()));
                 accel.refit(&frame_scene);
                 accel
+            }
+            #[cfg(feature = "embree")]
+            Build::EmbreeLow | Build::EmbreeMedium | Build::EmbreeRefit => {
+                unreachable!("traced above")
             }
             Build::Clusters => ClusterAccel::build(
                 &frame_scene.meshes[0],

@@ -39,6 +39,8 @@ const RTC_BUFFER_TYPE_VERTEX: u32 = 1;
 const RTC_FORMAT_UINT3: u32 = 0x5003;
 const RTC_FORMAT_FLOAT3: u32 = 0x9003;
 const RTC_INVALID_GEOMETRY_ID: u32 = u32::MAX;
+/// `RTC_SCENE_FLAG_DYNAMIC` (Embree 3 and 4: `1 << 0`).
+const RTC_SCENE_FLAG_DYNAMIC: u32 = 1 << 0;
 /// `RTC_SCENE_FLAG_COMPACT` (Embree 3 and 4: `1 << 1`).
 const RTC_SCENE_FLAG_COMPACT: u32 = 1 << 1;
 
@@ -94,6 +96,10 @@ extern "C" {
     fn rtcReleaseScene(scene: RTCScene);
     fn rtcCommitScene(scene: RTCScene);
     fn rtcSetSceneFlags(scene: RTCScene, flags: u32);
+    fn rtcSetSceneBuildQuality(scene: RTCScene, quality: u32);
+    fn rtcSetGeometryBuildQuality(geometry: RTCGeometry, quality: u32);
+    fn rtcUpdateGeometryBuffer(geometry: RTCGeometry, kind: u32, slot: u32);
+    fn rtcGetGeometry(scene: RTCScene, id: u32) -> RTCGeometry;
     fn rtcNewGeometry(device: RTCDevice, kind: u32) -> RTCGeometry;
     fn rtcSetNewGeometryBuffer(
         geometry: RTCGeometry,
@@ -110,6 +116,18 @@ extern "C" {
     fn rtcOccluded1(scene: RTCScene, context: *mut RTCIntersectContext, ray: *mut RTCRay);
 }
 
+/// How Embree builds a scene each frame (`RTCBuildQuality`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quality {
+    /// `RTC_BUILD_QUALITY_LOW`: Morton-code builds, for per-frame rebuilds.
+    Low = 0,
+    /// `RTC_BUILD_QUALITY_MEDIUM`: binned SAH (the default).
+    Medium = 1,
+    /// `RTC_BUILD_QUALITY_REFIT` on the geometry of a `RTC_SCENE_FLAG_DYNAMIC` scene:
+    /// the first frame's BVH, its boxes refitted.
+    Refit = 3,
+}
+
 /// A committed Embree scene.
 pub struct EmbreeScene {
     device: RTCDevice,
@@ -122,6 +140,9 @@ pub struct EmbreeScene {
     /// For a quad scene, per geometry: the two triangles of every quad (the second
     /// `u32::MAX` for an unpaired triangle's degenerate quad).
     quads: Option<Vec<Vec<[u32; 2]>>>,
+    /// Each geometry's id and shared vertex buffer (x, y, z per vertex), for
+    /// [`Self::update_positions`].
+    vertex_buffers: Vec<(u32, *mut f32, usize)>,
     /// The bytes Embree holds now: the memory monitor adds to it while the device
     /// lives, so it is kept (and dropped after the device is released).
     _allocated: Box<std::sync::atomic::AtomicIsize>,
@@ -144,13 +165,70 @@ extern "C" fn count_bytes(user: *mut c_void, bytes: isize, _post: bool) -> bool 
 impl EmbreeScene {
     /// Build `scene` with Embree using `threads` build threads (0 = all cores).
     pub fn build(scene: &Scene, threads: usize) -> Result<Self, LabError> {
-        Self::build_with(scene, None, threads, 0)
+        Self::build_with(scene, None, threads, 0, None)
+    }
+
+    /// Build `scene` for animation at `quality`: each [`Self::update_positions`] then
+    /// rebuilds it (`Low`, `Medium`) or refits it (`Refit`).
+    pub fn build_dynamic(
+        scene: &Scene,
+        quality: Quality,
+        threads: usize,
+    ) -> Result<Self, LabError> {
+        let flags = if quality == Quality::Medium {
+            0
+        } else {
+            RTC_SCENE_FLAG_DYNAMIC
+        };
+        Self::build_with(scene, None, threads, flags, Some(quality))
+    }
+
+    /// Give instance `instance`'s geometry (placed untransformed) new vertex positions
+    /// and commit the scene again: Embree's rebuild or refit. Returns the seconds the
+    /// commit took (the copy into Embree's buffer not counted).
+    pub fn update_positions(
+        &mut self,
+        instance: usize,
+        positions: &[glam::Vec3],
+    ) -> Result<f64, LabError> {
+        let Some(&(id, buffer, len)) = self
+            .vertex_buffers
+            .iter()
+            .find(|b| b.0 as usize == instance)
+        else {
+            return Err(LabError::Embree(format!(
+                "no geometry for instance {instance}"
+            )));
+        };
+        if len != 3 * positions.len() {
+            return Err(LabError::Embree(
+                "the new positions are not the geometry's count".into(),
+            ));
+        }
+        // SAFETY: `buffer` is the geometry's vertex buffer of `len` floats, alive while
+        // the scene holds the geometry; the handles are ours.
+        unsafe {
+            let out = std::slice::from_raw_parts_mut(buffer, len);
+            for (o, p) in out.chunks_exact_mut(3).zip(positions) {
+                o.copy_from_slice(&p.to_array());
+            }
+            let start = std::time::Instant::now();
+            let geometry = rtcGetGeometry(self.scene, id);
+            rtcUpdateGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0);
+            rtcCommitGeometry(geometry);
+            rtcCommitScene(self.scene);
+            let seconds = start.elapsed().as_secs_f64();
+            match rtcGetDeviceError(self.device) {
+                0 => Ok(seconds),
+                error => Err(LabError::Embree(format!("error {error} while updating"))),
+            }
+        }
     }
 
     /// Build `scene` with `RTC_SCENE_FLAG_COMPACT`: Embree's compact BVH and triangle
     /// layout, smaller and usually slower to trace.
     pub fn build_compact(scene: &Scene, threads: usize) -> Result<Self, LabError> {
-        Self::build_with(scene, None, threads, RTC_SCENE_FLAG_COMPACT)
+        Self::build_with(scene, None, threads, RTC_SCENE_FLAG_COMPACT, None)
     }
 
     /// Build `scene` as quads, `pairings[m]` pairing mesh `m` (as
@@ -160,7 +238,7 @@ impl EmbreeScene {
         pairings: &[rtmesh::pair::Pairing],
         threads: usize,
     ) -> Result<Self, LabError> {
-        Self::build_with(scene, Some(pairings), threads, 0)
+        Self::build_with(scene, Some(pairings), threads, 0, None)
     }
 
     fn build_with(
@@ -168,6 +246,7 @@ impl EmbreeScene {
         pairings: Option<&[rtmesh::pair::Pairing]>,
         threads: usize,
         scene_flags: u32,
+        quality: Option<Quality>,
     ) -> Result<Self, LabError> {
         let config =
             CString::new(format!("threads={threads},set_affinity=0,verbose=0")).expect("no NUL");
@@ -196,6 +275,17 @@ impl EmbreeScene {
             let start = std::time::Instant::now();
             let handle = rtcNewScene(device);
             rtcSetSceneFlags(handle, scene_flags);
+            // A scene of LOW quality is built in two levels, a BVH per geometry by
+            // the geometry's own builder (Morton for LOW, refit for REFIT) under a top
+            // BVH; MEDIUM builds one SAH BVH over all triangles.
+            match quality {
+                Some(Quality::Low | Quality::Refit) => {
+                    rtcSetSceneBuildQuality(handle, Quality::Low as u32)
+                }
+                Some(Quality::Medium) => rtcSetSceneBuildQuality(handle, Quality::Medium as u32),
+                None => {}
+            }
+            let mut vertex_buffers = Vec::new();
             for (id, instance) in scene.instances.iter().enumerate() {
                 let mesh = &scene.meshes[instance.mesh];
                 let (kind, format, stride, count) = match &quads {
@@ -258,6 +348,11 @@ impl EmbreeScene {
                         }
                     }
                 }
+                // The per-geometry builder follows the geometry's quality.
+                if let Some(q) = quality {
+                    rtcSetGeometryBuildQuality(geometry, q as u32);
+                }
+                vertex_buffers.push((id as u32, vertices.as_mut_ptr(), vertices.len()));
                 rtcCommitGeometry(geometry);
                 rtcAttachGeometryByID(handle, geometry, id as u32);
                 rtcReleaseGeometry(geometry);
@@ -284,6 +379,7 @@ impl EmbreeScene {
                         .map(|i| q[i.mesh].1.clone())
                         .collect()
                 }),
+                vertex_buffers,
                 _allocated: allocated,
             })
         }
