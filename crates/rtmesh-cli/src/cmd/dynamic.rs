@@ -7,7 +7,7 @@ use anyhow::{bail, Result};
 use clap::ValueEnum;
 use rtmesh::animate::{Animation, Motion};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::cluster::{ClusterAccel, Inside};
+use rtmesh::cluster::{ClusterFrames, Inside};
 use rtmesh::progress::Progress;
 use rtmesh::trace::measure::measure;
 use rtmesh::trace::{RayKind, SceneAccel, Workload};
@@ -171,6 +171,11 @@ pub fn run(args: Args) -> Result<()> {
     };
     let bar = steps_bar(args.frames);
     let mut refitted: Option<SceneAccel> = None;
+    let inside = match args.inside {
+        InsideArg::Flat => Inside::Flat,
+        InsideArg::Node => Inside::Node,
+    };
+    let mut cluster_frames = clusters.as_ref().map(|c| ClusterFrames::new(c, inside));
     #[cfg(feature = "embree")]
     let mut embree: Option<rtmesh_lab::embree::EmbreeScene> = None;
     let mut frames = Vec::with_capacity(args.frames);
@@ -226,14 +231,10 @@ pub fn run(args: Args) -> Result<()> {
             Build::EmbreeLow | Build::EmbreeMedium | Build::EmbreeRefit => {
                 unreachable!("traced above")
             }
-            Build::Clusters => ClusterAccel::build(
-                &frame_scene.meshes[0],
-                clusters.as_ref().expect("clusters were found"),
-                match args.inside {
-                    InsideArg::Flat => Inside::Flat,
-                    InsideArg::Node => Inside::Node,
-                },
-            ),
+            Build::Clusters => cluster_frames
+                .as_mut()
+                .expect("clusters were found")
+                .build(&frame_scene.meshes[0]),
         };
         let build_ms = 1e3 * start.elapsed().as_secs_f64();
         let work = Workload::generate(kind, &frame_scene, &accel, args.size.0, args.size.1, 1);
@@ -250,6 +251,8 @@ pub fn run(args: Args) -> Result<()> {
         });
         if args.build == Build::Refit {
             refitted = Some(accel);
+        } else if let Some(frames) = cluster_frames.as_mut() {
+            frames.recycle(accel);
         }
         bar.advance(1);
     }

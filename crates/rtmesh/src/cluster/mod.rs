@@ -520,101 +520,165 @@ pub enum Inside {
     Node,
 }
 
-/// The per-frame build over cluster boxes.
-pub struct ClusterAccel;
+/// The per-frame build over cluster boxes, keeping what frames share: each cluster's
+/// triangle blocks sit at a fixed place in one array (cluster order, lanes fixed), so a
+/// frame rewrites their corners in place, with no allocation, and the BVH's leaves
+/// point at them wherever the build puts the cluster.
+pub struct ClusterFrames<'c> {
+    clusters: &'c Clusters,
+    inside: Inside,
+    /// Cluster `c`'s blocks are `blocks[block_start[c]..block_start[c + 1]]`.
+    block_start: Vec<u32>,
+    /// The blocks of the last frame, taken back from its scene ([`Self::recycle`]).
+    blocks: Vec<Triangle4>,
+}
 
-impl ClusterAccel {
-    /// Build the tracer's scene for `mesh` (its current positions) from `clusters`:
-    /// every cluster's box, a binned-SAH BVH over the boxes with one cluster per leaf,
-    /// and each leaf's triangles in 4-wide blocks (hits name `mesh`'s triangle ids),
-    /// arranged as `inside` says.
-    pub fn build(mesh: &TriMesh, clusters: &Clusters, inside: Inside) -> SceneAccel {
+impl<'c> ClusterFrames<'c> {
+    /// Frames of `clusters`, arranged as `inside` says.
+    pub fn new(clusters: &'c Clusters, inside: Inside) -> Self {
+        let mut block_start = Vec::with_capacity(clusters.len() + 1);
+        block_start.push(0u32);
+        for c in 0..clusters.len() {
+            let last = block_start[block_start.len() - 1];
+            block_start.push(last + clusters.triangles_of(c).len().div_ceil(4) as u32);
+        }
+        Self {
+            clusters,
+            inside,
+            block_start,
+            blocks: Vec::new(),
+        }
+    }
+
+    /// Take back the blocks of a scene this built, so that the next frame reuses them.
+    pub fn recycle(&mut self, accel: SceneAccel) {
+        if let Some(bvh) = accel.into_single_blas() {
+            self.blocks = bvh.primitives;
+        }
+    }
+
+    /// Build the tracer's scene for `mesh` (its current positions): every cluster's
+    /// blocks rewritten in place (in parallel, with each block's box), every cluster's
+    /// box, a binned-SAH BVH over the boxes with one cluster per leaf, and each leaf
+    /// its cluster's blocks (hits name `mesh`'s triangle ids).
+    pub fn build(&mut self, mesh: &TriMesh) -> SceneAccel {
         let start = std::time::Instant::now();
-        let boxes: Vec<ClusterBox> = (0..clusters.len())
+        let clusters = self.clusters;
+        let total = self.block_start[self.block_start.len() - 1] as usize;
+        let empty = Triangle4::new(&[Triangle::new([Vec3::ZERO; 3], 0)]);
+        self.blocks.resize(total, empty);
+        let block_start = &self.block_start;
+        // Per cluster: its blocks rewritten and its box from them (the box the leaf
+        // test sees: a block keeps edges, not corners).
+        let mut boxes: Vec<ClusterBox> = Vec::with_capacity(clusters.len());
+        let mut rest: &mut [Triangle4] = &mut self.blocks;
+        let mut slices = Vec::with_capacity(clusters.len());
+        for c in 0..clusters.len() {
+            let (mine, tail) = rest.split_at_mut((block_start[c + 1] - block_start[c]) as usize);
+            slices.push(mine);
+            rest = tail;
+        }
+        slices
             .into_par_iter()
-            .map(|c| ClusterBox {
-                bounds: clusters.vertices_of(c).iter().fold(Aabb::EMPTY, |b, &v| {
-                    b.grown_by_point(mesh.positions[v as usize])
-                }),
-                cluster: c as u32,
+            .enumerate()
+            .map(|(c, blocks)| {
+                let range = clusters.triangles_of(c);
+                let mut bounds = Aabb::EMPTY;
+                for (block, start) in blocks.iter_mut().zip(range.clone().step_by(4)) {
+                    let mut lanes = [Triangle::new([Vec3::ZERO; 3], 0); 4];
+                    let n = (range.end - start).min(4);
+                    for (lane, i) in (start..start + n).enumerate() {
+                        let id = clusters.input_triangle[i];
+                        lanes[lane] = Triangle::new(mesh.corners(id as usize), id);
+                    }
+                    *block = Triangle4::new(&lanes[..n]);
+                    bounds = bounds.union(block.bounds());
+                }
+                ClusterBox {
+                    bounds,
+                    cluster: c as u32,
+                }
             })
-            .collect();
+            .collect_into_vec(&mut boxes);
         let settings = BuildSettings {
             max_leaf_size: 1,
             ..BuildSettings::default()
         };
         let over_boxes = Bvh::build(boxes, &settings);
-        // Each leaf (one cluster) becomes its triangles in 4-wide blocks.
-        let leaves: Vec<Vec<Triangle4>> = over_boxes
-            .primitives
-            .par_iter()
-            .map(|b| {
-                let c = b.cluster as usize;
-                let triangles: Vec<Triangle> = clusters
-                    .triangles_of(c)
-                    .map(|i| {
-                        let id = clusters.input_triangle[i];
-                        Triangle::new(mesh.corners(id as usize), id)
-                    })
-                    .collect();
-                triangles.chunks(4).map(Triangle4::new).collect()
-            })
-            .collect();
-        let mut first = Vec::with_capacity(leaves.len());
-        let mut primitives = Vec::with_capacity(clusters.local_triangles.len() / 4 + leaves.len());
-        for blocks in &leaves {
-            first.push(primitives.len() as u32);
-            primitives.extend_from_slice(blocks);
-        }
         let mut nodes = over_boxes.nodes;
+        let inside = self.inside;
+        let blocks = &self.blocks;
         // A cluster becomes a leaf of all its blocks (`Inside::Flat`), or a node whose
-        // children are its blocks, one leaf each (`Inside::Node`; refit sets the boxes).
-        let remap =
-            |reference: u32, nodes: &mut Vec<crate::bvh::BvhNode>| match Child::decode(reference) {
+        // children are its blocks, one leaf each (`Inside::Node`), with their boxes.
+        let remap = |reference: u32, nodes: &mut Vec<crate::bvh::BvhNode>| -> (u32, Aabb) {
+            match Child::decode(reference) {
                 Child::Leaf { first: leaf, .. } => {
-                    let (start, count) = (first[leaf as usize], leaves[leaf as usize].len() as u32);
+                    let cluster = over_boxes.primitives[leaf as usize];
+                    let c = cluster.cluster as usize;
+                    let (start, count) = (block_start[c], block_start[c + 1] - block_start[c]);
                     if inside == Inside::Flat || count == 1 {
-                        return Child::Leaf {
+                        let leaf = Child::Leaf {
                             first: start,
                             count,
-                        }
-                        .encode();
+                        };
+                        return (leaf.encode(), cluster.bounds);
                     }
                     // Up to 8 children of ⌈count / 8⌉ blocks each (one block each
                     // for MaxCount ≤ 32, two for up to 60 triangles).
                     let per = count.div_ceil(crate::bvh::WIDTH as u32);
                     let mut node = crate::bvh::BvhNode::EMPTY;
                     for (lane, k) in (0..count).step_by(per as usize).enumerate() {
+                        let n = per.min(count - k);
                         node.children[lane] = Child::Leaf {
                             first: start + k,
-                            count: per.min(count - k),
+                            count: n,
                         }
                         .encode();
+                        let range = (start + k) as usize..(start + k + n) as usize;
+                        let b = blocks[range]
+                            .iter()
+                            .fold(Aabb::EMPTY, |b, p| b.union(p.bounds()));
+                        node.set_child_bounds(lane, b);
                     }
                     nodes.push(node);
-                    Child::Inner(nodes.len() as u32 - 1).encode()
+                    (
+                        Child::Inner(nodes.len() as u32 - 1).encode(),
+                        cluster.bounds,
+                    )
                 }
-                _ => reference,
-            };
+                _ => (reference, Aabb::EMPTY),
+            }
+        };
+        // The top nodes' boxes are the clusters' boxes, which were made from the
+        // blocks: no refit is needed.
         let inner = nodes.len();
         for n in 0..inner {
             for lane in 0..crate::bvh::WIDTH {
                 let child = nodes[n].children[lane];
-                nodes[n].children[lane] = remap(child, &mut nodes);
+                if let Child::Leaf { .. } = Child::decode(child) {
+                    let (reference, _) = remap(child, &mut nodes);
+                    nodes[n].children[lane] = reference;
+                }
             }
         }
-        let root = remap(over_boxes.root, &mut nodes);
-        let mut bvh = Bvh {
+        let (root, _) = remap(over_boxes.root, &mut nodes);
+        let bvh = Bvh {
             root,
             nodes,
-            primitives,
+            primitives: std::mem::take(&mut self.blocks),
             build_seconds: 0.0,
         };
-        // The boxes again from the blocks as the leaf test sees them (a block keeps
-        // edges, not corners, so its box may differ from the vertices' in the last
-        // bit): O(nodes).
-        bvh.refit();
         SceneAccel::from_single_blas(bvh, mesh.triangle_count(), start)
+    }
+}
+
+/// The per-frame build over cluster boxes, for one frame.
+pub struct ClusterAccel;
+
+impl ClusterAccel {
+    /// The scene of one frame ([`ClusterFrames::build`] without reuse).
+    pub fn build(mesh: &TriMesh, clusters: &Clusters, inside: Inside) -> SceneAccel {
+        ClusterFrames::new(clusters, inside).build(mesh)
     }
 }
 

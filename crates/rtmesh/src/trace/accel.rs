@@ -190,6 +190,13 @@ impl<L: LeafBlock> SceneAccel<L> {
         }
     }
 
+    /// The one BLAS of a scene built by [`Self::from_single_blas`], given back.
+    pub(crate) fn into_single_blas(mut self) -> Option<Bvh<L>> {
+        (self.blas.len() == 1 && self.tlas.is_none())
+            .then(|| self.blas.pop())
+            .flatten()
+    }
+
     /// Add the TLAS (when the scene needs one) over built BLASes.
     fn assemble(
         scene: &Scene,
