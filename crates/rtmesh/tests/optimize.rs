@@ -161,15 +161,74 @@ fn nothing_to_trace_and_unbuilt_targets_are_errors() {
         optimize(&scene, &no_measure()).unwrap_err(),
         OptimizeError::NothingToTrace { triangles: 1 }
     );
-    let strips = OptimizeOptions {
-        target: Target::Strips,
-        ..no_measure()
-    };
-    let grid = Scene::from_mesh(rtmesh::scenes::quad_grid(2));
-    assert!(matches!(
-        optimize(&grid, &strips),
-        Err(OptimizeError::TargetNotBuilt(Target::Strips))
-    ));
+}
+
+/// The strips and clusters targets: every input triangle once (the map exact), the
+/// same first hits, and the sequences back to back over each geometry's triangles, each
+/// strip's triangles sharing an edge with the one before, each cluster within its
+/// limit.
+#[test]
+fn strips_and_clusters_targets_order_triangles_exactly() {
+    for target in [Target::Strips, Target::Clusters] {
+        for name in rtmesh::scenes::NAMES {
+            let scene = rtmesh::scenes::by_name(name).unwrap();
+            let options = OptimizeOptions {
+                target,
+                measure: Some(MeasureOptions {
+                    size: (64, 64),
+                    runs: 1,
+                    ..MeasureOptions::default()
+                }),
+                ..OptimizeOptions::default()
+            };
+            let out = run(&scene, &options);
+            assert_eq!(
+                out.report.same_hits.as_ref().unwrap().different,
+                0,
+                "{name} {target}"
+            );
+            assert_map_is_exact(&scene, &out, name);
+            for (g, mesh) in out.scene.meshes.iter().enumerate() {
+                let lengths = &out.sequences[g];
+                assert_eq!(
+                    lengths.iter().sum::<u32>() as usize,
+                    mesh.triangle_count(),
+                    "{name} {target}"
+                );
+                let mut first = 0;
+                for &length in lengths {
+                    let range = first..first + length as usize;
+                    if target == Target::Clusters {
+                        assert!(
+                            length as usize
+                                <= rtmesh::cluster::ClusterSettings::default().max_triangles
+                        );
+                    } else {
+                        for t in range.clone().skip(1) {
+                            let [a, b] = [mesh.triangles[t - 1], mesh.triangles[t]];
+                            let shared = a.iter().filter(|v| b.contains(v)).count();
+                            assert!(
+                                shared >= 2,
+                                "{name}: strip triangles {} and {t} share an edge",
+                                t - 1
+                            );
+                        }
+                    }
+                    let key = |t: usize| {
+                        (
+                            mesh.group_of(t),
+                            mesh.material_ids.get(t).copied().unwrap_or(0),
+                        )
+                    };
+                    assert!(
+                        range.clone().all(|t| key(t) == key(first)),
+                        "{name}: one primitive"
+                    );
+                    first = range.end;
+                }
+            }
+        }
+    }
 }
 
 #[test]

@@ -42,8 +42,10 @@ pub struct Args {
     /// folder that mirrors the inputs. Not needed with --dry-run.
     #[arg(short, long, value_name = "OUT", required_unless_present = "dry_run")]
     output: Option<PathBuf>,
-    /// What to prepare for: pairs, or triangles (repairs only). strips and clusters
-    /// come with their techniques.
+    /// What to prepare for: pairs, triangles (repairs only), strips (triangles in
+    /// Strip-RT strip order, the strip table beside OUT as OUT.strips.json) or clusters
+    /// (triangles in cluster order, the cluster table as OUT.clusters.json). The
+    /// measurement traces strips and clusters through triangle leaves.
     #[arg(long, default_value = "pairs")]
     target: Target,
     /// Write the HTML report here: a file for one input, else a folder (one report per
@@ -140,6 +142,9 @@ pub struct FileReport {
     report: Option<PathBuf>,
     /// The explicit pair list beside the output (target pairs).
     pairs_file: Option<PathBuf>,
+    /// The strip or cluster table beside the output (`--target strips|clusters`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    sequences_file: Option<PathBuf>,
     ok: bool,
     error: Option<String>,
     /// Wall-clock seconds for this file, reading and writing included.
@@ -372,6 +377,7 @@ fn run_job(job: &Job, settings: &Settings, progress: &dyn Progress) -> FileRepor
         output: None,
         report: None,
         pairs_file: None,
+        sequences_file: None,
         ok: false,
         error: None,
         seconds: 0.0,
@@ -416,6 +422,13 @@ fn optimize_file(
                 let path = PathBuf::from(name);
                 write_pairs(&optimized, &path)?;
                 report.pairs_file = Some(path);
+            }
+            if matches!(settings.options.target, Target::Strips | Target::Clusters) {
+                let mut name = output.clone().into_os_string();
+                name.push(format!(".{}.json", settings.options.target));
+                let path = PathBuf::from(name);
+                write_sequences(&optimized, &path)?;
+                report.sequences_file = Some(path);
             }
         }
     }
@@ -535,6 +548,63 @@ fn write_pairs(optimized: &Optimized, path: &Path) -> Result<()> {
     let file = PairsFile {
         schema: 1,
         format: "rtmesh pairs: triangles trianglePairIndices[2k] and [2k+1] of each primitive form a quad",
+        primitives,
+    };
+    std::fs::write(path, serde_json::to_string(&file)?)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// The strip or cluster table: per primitive (geometry, group and material, in the
+/// order the writers write them), the lengths of the strips or clusters that lie back
+/// to back in the primitive's triangle order.
+#[derive(Serialize)]
+struct SequencesFile {
+    schema: u32,
+    format: &'static str,
+    target: Target,
+    primitives: Vec<PrimitiveSequences>,
+}
+
+#[derive(Serialize)]
+struct PrimitiveSequences {
+    geometry: usize,
+    group: u32,
+    material: u32,
+    triangles: usize,
+    lengths: Vec<u32>,
+}
+
+fn write_sequences(optimized: &Optimized, path: &Path) -> Result<()> {
+    let mut primitives = Vec::new();
+    for (g, mesh) in optimized.scene.meshes.iter().enumerate() {
+        // Each strip or cluster lies within one primitive: walk them in geometry order
+        // and hand each to the primitive of its first triangle.
+        let key = |t: usize| {
+            (
+                mesh.group_of(t),
+                mesh.material_ids.get(t).copied().unwrap_or(0),
+            )
+        };
+        let mut by_key: std::collections::BTreeMap<(u32, u32), Vec<u32>> = Default::default();
+        let mut first = 0usize;
+        for &length in &optimized.sequences[g] {
+            by_key.entry(key(first)).or_default().push(length);
+            first += length as usize;
+        }
+        for ((group, material), ids) in mesh.primitives() {
+            primitives.push(PrimitiveSequences {
+                geometry: g,
+                group,
+                material,
+                triangles: ids.len(),
+                lengths: by_key.remove(&(group, material)).unwrap_or_default(),
+            });
+        }
+    }
+    let file = SequencesFile {
+        schema: 1,
+        format: "rtmesh sequences: each primitive's triangles are strips (or clusters) of these lengths, back to back",
+        target: optimized.report.target,
         primitives,
     };
     std::fs::write(path, serde_json::to_string(&file)?)

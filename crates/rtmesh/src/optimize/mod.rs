@@ -51,9 +51,11 @@ pub enum Target {
     Pairs,
     /// Triangles: the safe repairs only, order kept.
     Triangles,
-    /// Strip-RT strips (not built yet).
+    /// Strip-RT strips: each geometry's triangles in strip order (corners as they
+    /// were), the strip lengths in [`Optimized::sequences`].
     Strips,
-    /// Precomputed clusters for animated meshes (not built yet).
+    /// Precomputed clusters for animated meshes: each geometry's triangles in cluster
+    /// order (grown by Acc(k)), the cluster sizes in [`Optimized::sequences`].
     Clusters,
 }
 
@@ -152,9 +154,6 @@ pub fn safe_repairs() -> RepairSettings {
 /// Why [`optimize`] gave no scene.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum OptimizeError {
-    /// The target's technique is not built yet.
-    #[error("target `{0}` is not built yet: use pairs or triangles")]
-    TargetNotBuilt(Target),
     /// No triangle of the input can be hit by a ray.
     #[error("nothing to trace: {}", if *triangles == 0 {
         "the input holds no triangle".to_owned()
@@ -412,6 +411,10 @@ pub struct Optimized {
     pub input_triangle: Vec<Vec<u32>>,
     /// Per output geometry, its pairs: output triangles `2k` and `2k + 1` for `k` below.
     pub pair_counts: Vec<usize>,
+    /// Per output geometry, for the strips and clusters targets: the length of each
+    /// strip or cluster, which lie back to back in the output's triangle order (each
+    /// within one primitive). Empty for the other targets.
+    pub sequences: Vec<Vec<u32>>,
 }
 
 impl Optimized {
@@ -479,9 +482,6 @@ pub fn optimize_mapped(
     options: &OptimizeOptions,
     progress: &dyn Progress,
 ) -> Result<Optimized, OptimizeError> {
-    if matches!(options.target, Target::Strips | Target::Clusters) {
-        return Err(OptimizeError::TargetNotBuilt(options.target));
-    }
     let mut seconds = Seconds::default();
     progress.add_steps(2);
     progress.message("linting and repairing");
@@ -518,6 +518,10 @@ pub fn optimize_mapped(
             (Some((choice, vertices_copied)), counts)
         }
         _ => (None, vec![0; out.meshes.len()]),
+    };
+    let sequences = match options.target {
+        Target::Strips | Target::Clusters => in_sequences(&mut out, &mut map, options.target),
+        _ => vec![Vec::new(); out.meshes.len()],
     };
     seconds.target = clock.elapsed().as_secs_f64();
     seconds.prepare = lint_and_repair + seconds.target;
@@ -560,6 +564,7 @@ pub fn optimize_mapped(
         input_geometry: map.input_geometry,
         input_triangle: map.input_triangle,
         pair_counts,
+        sequences,
     };
     optimized.report.histograms = histograms(&optimized);
     // The output's BVH is the one its target traces: pair leaves for pairs.
@@ -594,6 +599,46 @@ fn measure_output<L: LeafBlock>(
         optimized.report.same_hits = Some(same);
         optimized.report.step_seconds.measure = clock.elapsed().as_secs_f64();
     }
+}
+
+/// Put each geometry's triangles in strip order (Strip-RT, default length) or cluster
+/// order (grown by Acc(k), default limits), corners as they were, and compose the
+/// map; returns each geometry's strip or cluster lengths.
+fn in_sequences(
+    scene: &mut Scene,
+    map: &mut crate::analysis::RepairMap,
+    target: Target,
+) -> Vec<Vec<u32>> {
+    let mut all = Vec::with_capacity(scene.meshes.len());
+    for (g, mesh) in scene.meshes.iter_mut().enumerate() {
+        let (order, lengths): (Vec<u32>, Vec<u32>) = if target == Target::Strips {
+            let strips = crate::strip::sah::stripify(mesh, &Default::default());
+            let lengths = (0..strips.len())
+                .map(|s| strips.triangles_of(s).len() as u32)
+                .collect();
+            (strips.triangle_source, lengths)
+        } else {
+            let clusters = crate::cluster::grow(mesh, &Default::default());
+            let lengths = (0..clusters.len())
+                .map(|c| clusters.triangles_of(c).len() as u32)
+                .collect();
+            (clusters.input_triangle, lengths)
+        };
+        let mut ordered = TriMesh {
+            name: mesh.name.clone(),
+            positions: mesh.positions.clone(),
+            triangles: order.iter().map(|&t| mesh.triangles[t as usize]).collect(),
+            attributes: mesh.attributes.clone(),
+            ..TriMesh::default()
+        };
+        ordered.take_triangle_data(mesh, &order);
+        *mesh = ordered;
+        for ids in [&mut map.input_triangle[g], &mut map.input_geometry[g]] {
+            *ids = order.iter().map(|&t| ids[t as usize]).collect();
+        }
+        all.push(lengths);
+    }
+    all
 }
 
 /// Triangles a ray can hit: indices in range, finite corners, non-zero area.
