@@ -525,23 +525,23 @@ fn failed_runs_exit_one_with_the_reason() {
     }
 }
 
+/// The keys of `rtmesh cluster --json`.
+const CLUSTER_KEYS: &[&str] = &[
+    "mesh",
+    "method",
+    "triangles",
+    "clusters",
+    "mean_triangles",
+    "mean_vertices_per_triangle",
+    "bytes",
+    "indexed_bytes",
+    "disconnected",
+    "seconds",
+];
+
 #[test]
 fn cluster_and_dynamic_keys() {
-    let clusters = assert_keys(
-        &["cluster", "builtin:blob", "--json"],
-        &[
-            "mesh",
-            "method",
-            "triangles",
-            "clusters",
-            "mean_triangles",
-            "mean_vertices_per_triangle",
-            "bytes",
-            "indexed_bytes",
-            "disconnected",
-            "seconds",
-        ],
-    );
+    let clusters = assert_keys(&["cluster", "builtin:blob", "--json"], CLUSTER_KEYS);
     assert_eq!(clusters[0]["triangles"], 99892);
     for build in ["rebuild", "refit", "clusters"] {
         let dynamic = assert_keys(
@@ -593,18 +593,7 @@ fn cluster_and_dynamic_keys() {
     // meshoptimizer's clusters: every triangle in one, within MaxCount.
     let theirs = assert_keys(
         &["cluster", "builtin:blob", "--method", "meshopt", "--json"],
-        &[
-            "mesh",
-            "method",
-            "triangles",
-            "clusters",
-            "mean_triangles",
-            "mean_vertices_per_triangle",
-            "bytes",
-            "indexed_bytes",
-            "disconnected",
-            "seconds",
-        ],
+        CLUSTER_KEYS,
     );
     assert_eq!(theirs[0]["triangles"], 99892);
     assert!(theirs[0]["mean_triangles"].as_f64().unwrap() <= 32.0);

@@ -149,6 +149,22 @@ pub struct Report {
     total: Total,
 }
 
+impl Frame {
+    /// Frame `frame`'s row: its build time, the trace run and the BVH's SAH cost.
+    fn of(frame: usize, build_ms: f64, run: &rtmesh::trace::TraceRun, sah_cost: f32) -> Self {
+        Self {
+            frame,
+            build_ms,
+            trace_ms: 1e3 * run.seconds,
+            mrays_per_s: run.mrays_per_s,
+            box_tests_per_ray: run.box_tests_per_ray,
+            tri_tests_per_ray: run.tri_tests_per_ray,
+            sah_cost,
+            hit_checksum: run.hit_checksum,
+        }
+    }
+}
+
 /// Animate, build, trace, report.
 pub fn run(args: Args) -> Result<()> {
     let kind = RayKind::from(args.rays);
@@ -204,16 +220,7 @@ pub fn run(args: Args) -> Result<()> {
             let e = embree.as_ref().expect("built above");
             let work = Workload::generate(kind, &frame_scene, e, args.size.0, args.size.1, 1);
             let run = measure(e, &work, args.runs);
-            frames.push(Frame {
-                frame: f,
-                build_ms,
-                trace_ms: 1e3 * run.seconds,
-                mrays_per_s: run.mrays_per_s,
-                box_tests_per_ray: run.box_tests_per_ray,
-                tri_tests_per_ray: run.tri_tests_per_ray,
-                sah_cost: f32::NAN,
-                hit_checksum: run.hit_checksum,
-            });
+            frames.push(Frame::of(f, build_ms, &run, f32::NAN));
             bar.advance(1);
             continue;
         }
@@ -239,16 +246,7 @@ pub fn run(args: Args) -> Result<()> {
         let build_ms = 1e3 * start.elapsed().as_secs_f64();
         let work = Workload::generate(kind, &frame_scene, &accel, args.size.0, args.size.1, 1);
         let run = measure(&accel, &work, args.runs);
-        frames.push(Frame {
-            frame: f,
-            build_ms,
-            trace_ms: 1e3 * run.seconds,
-            mrays_per_s: run.mrays_per_s,
-            box_tests_per_ray: run.box_tests_per_ray,
-            tri_tests_per_ray: run.tri_tests_per_ray,
-            sah_cost: accel.stats().sah_cost,
-            hit_checksum: run.hit_checksum,
-        });
+        frames.push(Frame::of(f, build_ms, &run, accel.stats().sah_cost));
         if args.build == Build::Refit {
             refitted = Some(accel);
         } else if let Some(frames) = cluster_frames.as_mut() {
