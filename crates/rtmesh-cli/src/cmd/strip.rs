@@ -4,7 +4,7 @@
 use crate::args::load;
 use crate::output::emit;
 use anyhow::{bail, Context, Result};
-use rtmesh::mesh::weld_exact;
+use rtmesh::mesh::{names_a_vertex_twice, weld_exact};
 use rtmesh::strip::{meshopt, sah, StripReport, Strips};
 use rtmesh::TriMesh;
 use serde::Serialize;
@@ -138,7 +138,7 @@ pub fn run(args: Args) -> Result<()> {
         strips
             .iter()
             .flat_map(Strips::decode)
-            .filter(|t| t[0] == t[1] || t[1] == t[2] || t[0] == t[2])
+            .filter(|&t| names_a_vertex_twice(t))
             .count()
     });
     let report = Report {

@@ -531,6 +531,8 @@ pub struct ClusterFrames<'c> {
     block_start: Vec<u32>,
     /// The blocks of the last frame, taken back from its scene ([`Self::recycle`]).
     blocks: Vec<Triangle4>,
+    /// Each block's box in this frame, made while the block is written.
+    block_bounds: Vec<Aabb>,
 }
 
 impl<'c> ClusterFrames<'c> {
@@ -547,6 +549,7 @@ impl<'c> ClusterFrames<'c> {
             inside,
             block_start,
             blocks: Vec::new(),
+            block_bounds: Vec::new(),
         }
     }
 
@@ -567,24 +570,28 @@ impl<'c> ClusterFrames<'c> {
         let total = self.block_start[self.block_start.len() - 1] as usize;
         let empty = Triangle4::new(&[Triangle::new([Vec3::ZERO; 3], 0)]);
         self.blocks.resize(total, empty);
+        self.block_bounds.resize(total, Aabb::EMPTY);
         let block_start = &self.block_start;
-        // Per cluster: its blocks rewritten and its box from them (the box the leaf
-        // test sees: a block keeps edges, not corners).
+        // Per cluster: its blocks and their boxes rewritten, and its box from them (the
+        // box the leaf test sees: a block keeps edges, not corners).
         let mut boxes: Vec<ClusterBox> = Vec::with_capacity(clusters.len());
-        let mut rest: &mut [Triangle4] = &mut self.blocks;
+        let (mut rest, mut rest_bounds) = (&mut self.blocks[..], &mut self.block_bounds[..]);
         let mut slices = Vec::with_capacity(clusters.len());
         for c in 0..clusters.len() {
-            let (mine, tail) = rest.split_at_mut((block_start[c + 1] - block_start[c]) as usize);
-            slices.push(mine);
-            rest = tail;
+            let count = (block_start[c + 1] - block_start[c]) as usize;
+            let (mine, tail) = rest.split_at_mut(count);
+            let (my_bounds, tail_bounds) = rest_bounds.split_at_mut(count);
+            slices.push((mine, my_bounds));
+            (rest, rest_bounds) = (tail, tail_bounds);
         }
         slices
             .into_par_iter()
             .enumerate()
-            .map(|(c, blocks)| {
+            .map(|(c, (blocks, block_bounds))| {
                 let range = clusters.triangles_of(c);
                 let mut bounds = Aabb::EMPTY;
-                for (block, start) in blocks.iter_mut().zip(range.clone().step_by(4)) {
+                let starts = range.clone().step_by(4);
+                for ((block, block_box), start) in blocks.iter_mut().zip(block_bounds).zip(starts) {
                     let mut lanes = [Triangle::new([Vec3::ZERO; 3], 0); 4];
                     let n = (range.end - start).min(4);
                     for (lane, i) in (start..start + n).enumerate() {
@@ -592,7 +599,8 @@ impl<'c> ClusterFrames<'c> {
                         lanes[lane] = Triangle::new(mesh.corners(id as usize), id);
                     }
                     *block = Triangle4::new(&lanes[..n]);
-                    bounds = bounds.union(block.bounds());
+                    *block_box = block.bounds();
+                    bounds = bounds.union(*block_box);
                 }
                 ClusterBox {
                     bounds,
@@ -607,10 +615,10 @@ impl<'c> ClusterFrames<'c> {
         let over_boxes = Bvh::build(boxes, &settings);
         let mut nodes = over_boxes.nodes;
         let inside = self.inside;
-        let blocks = &self.blocks;
+        let block_bounds = &self.block_bounds;
         // A cluster becomes a leaf of all its blocks (`Inside::Flat`), or a node whose
         // children are its blocks, one leaf each (`Inside::Node`), with their boxes.
-        let remap = |reference: u32, nodes: &mut Vec<crate::bvh::BvhNode>| -> (u32, Aabb) {
+        let remap = |reference: u32, nodes: &mut Vec<crate::bvh::BvhNode>| -> u32 {
             match Child::decode(reference) {
                 Child::Leaf { first: leaf, .. } => {
                     let cluster = over_boxes.primitives[leaf as usize];
@@ -621,7 +629,7 @@ impl<'c> ClusterFrames<'c> {
                             first: start,
                             count,
                         };
-                        return (leaf.encode(), cluster.bounds);
+                        return leaf.encode();
                     }
                     // Up to 8 children of ⌈count / 8⌉ blocks each (one block each
                     // for MaxCount ≤ 32, two for up to 60 triangles).
@@ -635,18 +643,15 @@ impl<'c> ClusterFrames<'c> {
                         }
                         .encode();
                         let range = (start + k) as usize..(start + k + n) as usize;
-                        let b = blocks[range]
+                        let b = block_bounds[range]
                             .iter()
-                            .fold(Aabb::EMPTY, |b, p| b.union(p.bounds()));
+                            .fold(Aabb::EMPTY, |b, &p| b.union(p));
                         node.set_child_bounds(lane, b);
                     }
                     nodes.push(node);
-                    (
-                        Child::Inner(nodes.len() as u32 - 1).encode(),
-                        cluster.bounds,
-                    )
+                    Child::Inner(nodes.len() as u32 - 1).encode()
                 }
-                _ => (reference, Aabb::EMPTY),
+                _ => reference,
             }
         };
         // The top nodes' boxes are the clusters' boxes, which were made from the
@@ -655,13 +660,10 @@ impl<'c> ClusterFrames<'c> {
         for n in 0..inner {
             for lane in 0..crate::bvh::WIDTH {
                 let child = nodes[n].children[lane];
-                if let Child::Leaf { .. } = Child::decode(child) {
-                    let (reference, _) = remap(child, &mut nodes);
-                    nodes[n].children[lane] = reference;
-                }
+                nodes[n].children[lane] = remap(child, &mut nodes);
             }
         }
-        let (root, _) = remap(over_boxes.root, &mut nodes);
+        let root = remap(over_boxes.root, &mut nodes);
         let bvh = Bvh {
             root,
             nodes,

@@ -267,26 +267,17 @@ impl PropertyAccess for Strips {
 }
 
 /// Append the triangles of the strips in `indices` (−1 restarts a strip) to
-/// `triangles`: triangle `i` of a strip `s` is `(s[i], s[i+1], s[i+2])` for even `i`
-/// and `(s[i+1], s[i], s[i+2])` for odd `i`, so all keep one winding. Triangles that
-/// name a vertex twice are dropped; returns how many, or the first index that is
-/// neither a vertex nor −1.
+/// `triangles` ([`crate::strip::standard_triangles`], which drops the ones that name a
+/// vertex twice); returns how many were dropped, or the first index that is neither a
+/// vertex nor −1.
 fn strip_triangles(indices: &[i64], triangles: &mut Vec<[u32; 3]>) -> Result<usize, i64> {
     let mut dropped = 0;
     for strip in indices.split(|&i| i == -1) {
-        if let Some(&bad) = strip.iter().find(|&&i| !(0..=u32::MAX as i64).contains(&i)) {
-            return Err(bad);
-        }
-        for (i, w) in strip.windows(3).enumerate() {
-            let [a, b, c] = [w[0] as u32, w[1] as u32, w[2] as u32];
-            if a == b || b == c || a == c {
-                dropped += 1;
-            } else if i % 2 == 0 {
-                triangles.push([a, b, c]);
-            } else {
-                triangles.push([b, a, c]);
-            }
-        }
+        let strip: Vec<u32> = strip
+            .iter()
+            .map(|&i| u32::try_from(i).map_err(|_| i))
+            .collect::<Result<_, _>>()?;
+        dropped += crate::strip::standard_triangles(&strip, triangles);
     }
     Ok(dropped)
 }

@@ -30,11 +30,7 @@ pub struct Duplicates {
 pub fn duplicates(mesh: &TriMesh) -> Duplicates {
     let welded = mesh.topology();
     // The corners rotated to start at the smallest: equal when the winding is.
-    let rotated = |t: usize| {
-        let tri = welded.triangles[t];
-        let first = (0..3).min_by_key(|&k| tri[k]).unwrap_or(0);
-        [tri[first], tri[(first + 1) % 3], tri[(first + 2) % 3]]
-    };
+    let rotated = |t: usize| super::smallest_first(welded.triangles[t]);
     // Per usable triangle, its corners sorted then its id, in one integer.
     let mut keys: Vec<u128> = welded
         .triangles

@@ -12,6 +12,7 @@ mod adjacency;
 mod attributes;
 mod duplicates;
 mod info;
+mod triangle_ids;
 mod validate;
 mod weld;
 
@@ -21,12 +22,31 @@ pub(crate) use attributes::gather_all;
 pub use attributes::{morph_name, AttributeValues, Semantic, VertexAttribute, MORPH_PREFIX};
 pub use duplicates::{duplicates, Duplicates};
 pub use info::{AttributeSummary, DocumentSummary, MeshInfo};
+pub(crate) use triangle_ids::TriangleIds;
 pub use validate::{validate, Validation};
 pub use weld::{weld, weld_exact, WeldResult};
 
 use crate::geom::Aabb;
 use glam::{Affine3A, Vec3};
 use serde::Serialize;
+
+/// Triangle `t`'s corners rotated by `r` (0, 1 or 2) places: the same triangle, the
+/// same winding.
+pub fn rotate(t: [u32; 3], r: usize) -> [u32; 3] {
+    [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
+}
+
+/// Triangle `t`'s corners rotated to start at the smallest index: equal for two
+/// triangles exactly when they have the same corners and the same winding.
+pub fn smallest_first(t: [u32; 3]) -> [u32; 3] {
+    rotate(t, (0..3).min_by_key(|&k| t[k]).unwrap_or(0))
+}
+
+/// Whether triangle `t` names a vertex twice (or three times): a line or a point, and
+/// in a rasterization strip a join or a swap.
+pub fn names_a_vertex_twice(t: [u32; 3]) -> bool {
+    t[0] == t[1] || t[1] == t[2] || t[2] == t[0]
+}
 
 /// A material as far as ray tracing cares: its name and whether it is alpha-tested
 /// (any-hit shaders run on its triangles).
@@ -84,6 +104,20 @@ impl TriMesh {
     #[inline]
     pub fn group_of(&self, t: usize) -> u32 {
         self.group_ids.get(t).copied().unwrap_or(0)
+    }
+
+    /// The same mesh (vertices, attributes, name) with triangle `i` being `self`'s
+    /// triangle `order[i]`, its material, alpha flag and group with it.
+    pub fn reordered(&self, order: &[u32]) -> TriMesh {
+        let mut out = TriMesh {
+            name: self.name.clone(),
+            positions: self.positions.clone(),
+            triangles: order.iter().map(|&t| self.triangles[t as usize]).collect(),
+            attributes: self.attributes.clone(),
+            ..TriMesh::default()
+        };
+        out.take_triangle_data(self, order);
+        out
     }
 
     /// Set the per-triangle material, alpha flag and group of every triangle from

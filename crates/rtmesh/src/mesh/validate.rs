@@ -57,7 +57,7 @@ pub fn validate(mesh: &TriMesh) -> Validation {
             report.non_finite_positions.push(t);
             continue;
         }
-        if tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0] {
+        if super::names_a_vertex_twice(*tri) {
             report.repeated_vertices.push(t);
             continue;
         }

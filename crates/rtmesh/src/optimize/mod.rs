@@ -624,15 +624,7 @@ fn in_sequences(
                 .collect();
             (clusters.input_triangle, lengths)
         };
-        let mut ordered = TriMesh {
-            name: mesh.name.clone(),
-            positions: mesh.positions.clone(),
-            triangles: order.iter().map(|&t| mesh.triangles[t as usize]).collect(),
-            attributes: mesh.attributes.clone(),
-            ..TriMesh::default()
-        };
-        ordered.take_triangle_data(mesh, &order);
-        *mesh = ordered;
+        *mesh = mesh.reordered(&order);
         for ids in [&mut map.input_triangle[g], &mut map.input_geometry[g]] {
             *ids = order.iter().map(|&t| ids[t as usize]).collect();
         }

@@ -33,6 +33,7 @@ mod suitor;
 pub mod window;
 
 use crate::geom::Aabb;
+pub use crate::mesh::rotate;
 use crate::mesh::TriMesh;
 use glam::Vec3;
 use serde::Serialize;
@@ -383,12 +384,6 @@ pub fn quad(a: &[u32; 3], b: &[u32; 3]) -> Option<([u32; 4], [usize; 2])> {
     ))
 }
 
-/// `t` rotated to start at corner `r` (same winding).
-#[inline]
-pub fn rotate(t: [u32; 3], r: usize) -> [u32; 3] {
-    [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
-}
-
 /// A paired mesh: pairs first as two consecutive triangles in the quad convention,
 /// then the unpaired triangles.
 #[derive(Clone, Debug)]
@@ -407,30 +402,22 @@ pub struct PairedMesh {
 pub fn reorder(mesh: &TriMesh, topology: &TriMesh, pairing: &Pairing) -> PairedMesh {
     assert_eq!(mesh.triangle_count(), topology.triangle_count());
     let n = mesh.triangle_count();
-    let mut triangles = Vec::with_capacity(n);
     let mut input_triangle = Vec::with_capacity(n);
+    let mut rotations = Vec::with_capacity(2 * pairing.pairs.len());
     for &[a, b] in &pairing.pairs {
         let (_, [ra, rb]) = quad(
             &topology.triangles[a as usize],
             &topology.triangles[b as usize],
         )
         .expect("paired triangles share an edge in opposite directions");
-        triangles.push(rotate(mesh.triangles[a as usize], ra));
-        triangles.push(rotate(mesh.triangles[b as usize], rb));
         input_triangle.extend([a, b]);
+        rotations.extend([ra, rb]);
     }
-    for &t in &pairing.unpaired {
-        triangles.push(mesh.triangles[t as usize]);
-        input_triangle.push(t);
+    input_triangle.extend_from_slice(&pairing.unpaired);
+    let mut out = mesh.reordered(&input_triangle);
+    for (t, r) in out.triangles.iter_mut().zip(rotations) {
+        *t = rotate(*t, r);
     }
-    let mut out = TriMesh {
-        name: mesh.name.clone(),
-        positions: mesh.positions.clone(),
-        triangles,
-        attributes: mesh.attributes.clone(),
-        ..TriMesh::default()
-    };
-    out.take_triangle_data(mesh, &input_triangle);
     PairedMesh {
         mesh: out,
         input_triangle,

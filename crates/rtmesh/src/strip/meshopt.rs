@@ -8,11 +8,11 @@
 //! (meshoptimizer's swaps and joins), and at `max_length`. Triangles with a repeated
 //! index, which meshoptimizer drops, become strips of one.
 //!
-//! Cost: meshoptimizer's, O(T), then O(T) to map its triangles back to input ids.
+//! Cost: meshoptimizer's, O(T), then O(T log T) to map its triangles back to input ids
+//! ([`TriangleIds`]).
 
 use super::{standard_triangles, Encoder, Strips};
-use crate::mesh::TriMesh;
-use std::collections::HashMap;
+use crate::mesh::{names_a_vertex_twice, TriMesh, TriangleIds};
 
 /// What meshoptimizer's stripifier made.
 pub struct MeshoptStrips {
@@ -31,12 +31,8 @@ const RESTART: u32 = u32::MAX;
 pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
     let tris = &mesh.triangles;
     let vertex_count = mesh.positions.len();
-    let proper = |t: &[u32; 3]| {
-        t[0] != t[1]
-            && t[1] != t[2]
-            && t[2] != t[0]
-            && t.iter().all(|&v| (v as usize) < vertex_count)
-    };
+    let proper =
+        |t: &[u32; 3]| !names_a_vertex_twice(*t) && t.iter().all(|&v| (v as usize) < vertex_count);
     let indices: Vec<u32> = tris
         .iter()
         .filter(|t| proper(t))
@@ -53,15 +49,7 @@ pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
     };
     let native_restarts = native.iter().filter(|&&i| i == RESTART).count();
 
-    // Input ids of each triangle, by its rotation that starts at its smallest index.
-    let key = |t: [u32; 3]| {
-        let r = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
-        [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
-    };
-    let mut ids: HashMap<[u32; 3], Vec<u32>> = HashMap::with_capacity(tris.len());
-    for (t, &v) in tris.iter().enumerate().rev() {
-        ids.entry(key(v)).or_default().push(t as u32);
-    }
+    let mut ids = TriangleIds::new(tris);
     let mut encoder = Encoder::new(tris);
     let mut sequence: Vec<u32> = Vec::new();
     let mut exits: Vec<u8> = Vec::new();
@@ -71,9 +59,12 @@ pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
         sequence.clear();
         exits.clear();
     };
+    let mut run_triangles = Vec::new();
     for run in native.split(|&i| i == RESTART) {
-        for t in standard_triangles(run, None) {
-            let Some(id) = ids.get_mut(&key(t)).and_then(|v| v.pop()) else {
+        run_triangles.clear();
+        standard_triangles(run, &mut run_triangles);
+        for &t in &run_triangles {
+            let Some(id) = ids.take(t) else {
                 continue;
             };
             // The side of the previous triangle this one shares the other way round,
@@ -105,9 +96,7 @@ pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
         }
     }
     // Whatever meshoptimizer did not return (degenerate or out-of-range triangles).
-    let mut left: Vec<u32> = ids.into_values().flatten().collect();
-    left.sort_unstable();
-    for t in left {
+    for t in ids.untaken() {
         encoder.push(&[t], &[]);
     }
     MeshoptStrips {

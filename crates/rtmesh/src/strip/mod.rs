@@ -43,7 +43,7 @@ pub mod sah;
 #[cfg(test)]
 mod tests;
 
-use crate::mesh::{EdgeAdjacency, TriMesh, NO_EDGE};
+use crate::mesh::{names_a_vertex_twice, EdgeAdjacency, TriMesh, NO_EDGE};
 use serde::Serialize;
 
 /// No neighbour across a side (boundary, non-manifold, or opposite winding).
@@ -87,6 +87,11 @@ impl Strips {
     #[inline(always)]
     pub fn turn(&self, k: usize) -> bool {
         self.turns[k / 32] >> (k % 32) & 1 != 0
+    }
+
+    /// Set the turn bit of triangle `k` (strip order).
+    fn set_turn(&mut self, k: usize) {
+        self.turns[k / 32] |= 1 << (k % 32);
     }
 
     /// Call `f(k, [p, q, r])` for each triangle of strip `s` in order, `k` its
@@ -137,9 +142,8 @@ impl Strips {
             out.indices
                 .extend_from_slice(&self.indices[base..base + range.len() + 2]);
             for k in range.clone() {
-                let to = out.triangle_source.len();
                 if self.turn(k) {
-                    out.turns[to / 32] |= 1 << (to % 32);
+                    out.set_turn(out.triangle_source.len());
                 }
                 out.triangle_source.push(self.triangle_source[k]);
             }
@@ -211,23 +215,25 @@ pub fn same_winding(a: [u32; 3], b: [u32; 3]) -> bool {
     a == b || a == [b[1], b[2], b[0]] || a == [b[2], b[0], b[1]]
 }
 
-/// The triangles of a rasterization strip (`TRIANGLE_STRIP` order: every odd triangle
-/// flipped), degenerate ones (a repeated index) left out; `restart` ends a strip.
-pub fn standard_triangles(list: &[u32], restart: Option<u32>) -> Vec<[u32; 3]> {
-    let mut out = Vec::new();
-    for run in list.split(|&i| Some(i) == restart) {
-        for (i, w) in run.windows(3).enumerate() {
-            let t = if i % 2 == 0 {
-                [w[0], w[1], w[2]]
-            } else {
-                [w[1], w[0], w[2]]
-            };
-            if t[0] != t[1] && t[1] != t[2] && t[2] != t[0] {
-                out.push(t);
-            }
+/// Append the triangles of the rasterization strip `strip` to `out`: triangle `i` is
+/// `(s[i], s[i+1], s[i+2])` for even `i` and `(s[i+1], s[i], s[i+2])` for odd `i`, so
+/// all keep one winding. Triangles that name a vertex twice (joins and swaps) are left
+/// out; returns how many. The PLY and glTF readers decode strips with it.
+pub fn standard_triangles(strip: &[u32], out: &mut Vec<[u32; 3]>) -> usize {
+    let mut dropped = 0;
+    for (i, w) in strip.windows(3).enumerate() {
+        let t = if i % 2 == 0 {
+            [w[0], w[1], w[2]]
+        } else {
+            [w[1], w[0], w[2]]
+        };
+        if names_a_vertex_twice(t) {
+            dropped += 1;
+        } else {
+            out.push(t);
         }
     }
-    out
+    dropped
 }
 
 /// Figures of a stripification, with the keys of `rtmesh strip --json`.
@@ -275,17 +281,7 @@ impl StripReport {
 
     /// The figures of `strips`, made in `seconds`.
     pub fn of(strips: &Strips, seconds: f64) -> Self {
-        let triangles = strips.triangle_count();
-        Self {
-            triangles,
-            strips: strips.len(),
-            indices: strips.indices.len(),
-            indices_per_triangle: strips.indices_per_triangle(),
-            mean_length: triangles as f64 / strips.len().max(1) as f64,
-            restarts: strips.len().saturating_sub(1),
-            bytes_per_triangle: strips.bytes() as f64 / triangles.max(1) as f64,
-            seconds,
-        }
+        Self::of_all(std::slice::from_ref(strips), seconds)
     }
 }
 
@@ -370,7 +366,7 @@ impl<'a> Encoder<'a> {
             let n = *w.iter().find(|x| !shared.contains(x)).unwrap_or(&w[0]);
             let right = shared.contains(&t[0]);
             if right {
-                self.strips.turns[k / 32] |= 1 << (k % 32);
+                self.strips.set_turn(k);
                 t = [t[0], t[2], n];
             } else {
                 t = [t[2], t[1], n];

@@ -240,7 +240,7 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
             } else {
                 (m.b, m.a, m.x)
             };
-            for t in walk(&links, gone_end) {
+            for (t, _) in walk(&links, gone_end) {
                 sequence_of[t as usize] = keep;
             }
             link(&mut links, m.x, m.y, m.side_x);
@@ -289,23 +289,9 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
         emitted[s as usize] = true;
         sequence.clear();
         exits.clear();
-        let start = sequences[s as usize].ends[0];
-        let mut previous = NONE;
-        let mut current = start;
-        loop {
-            sequence.push(current);
-            let next = links[current as usize]
-                .iter()
-                .find(|l| l.0 != NONE && l.0 != previous)
-                .copied();
-            match next {
-                Some((next, side)) if sequence.len() < n => {
-                    exits.push(side);
-                    previous = current;
-                    current = next;
-                }
-                _ => break,
-            }
+        for (t, exit) in walk(&links, sequences[s as usize].ends[0]) {
+            sequence.push(t);
+            exits.extend(exit);
         }
         encoder.push(&sequence, &exits);
     }
@@ -319,8 +305,9 @@ fn link(links: &mut [[(u32, u8); 2]], from: u32, to: u32, side: u8) {
     slots[free] = (to, side);
 }
 
-/// The triangles of the sequence that has `end` as an end, from that end.
-fn walk(links: &[[(u32, u8); 2]], end: u32) -> impl Iterator<Item = u32> + '_ {
+/// The triangles of the sequence that has `end` as an end, from that end, each with the
+/// side it leaves by to the next (none for the last).
+fn walk(links: &[[(u32, u8); 2]], end: u32) -> impl Iterator<Item = (u32, Option<u8>)> + '_ {
     let mut previous = NONE;
     let mut current = end;
     std::iter::from_fn(move || {
@@ -331,9 +318,9 @@ fn walk(links: &[[(u32, u8); 2]], end: u32) -> impl Iterator<Item = u32> + '_ {
         let next = links[here as usize]
             .iter()
             .find(|l| l.0 != NONE && l.0 != previous)
-            .map_or(NONE, |l| l.0);
+            .copied();
         previous = here;
-        current = next;
-        Some(here)
+        current = next.map_or(NONE, |l| l.0);
+        Some((here, next.map(|l| l.1)))
     })
 }

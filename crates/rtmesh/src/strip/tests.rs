@@ -25,9 +25,10 @@ fn assert_valid(mesh: &TriMesh, strips: &Strips, max_length: usize) {
         let expected: Vec<[u32; 3]> = strips
             .triangles_of(s)
             .map(|k| decoded[k])
-            .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
+            .filter(|&t| !crate::mesh::names_a_vertex_twice(t))
             .collect();
-        let got = standard_triangles(list, None);
+        let mut got = Vec::new();
+        standard_triangles(list, &mut got);
         assert_eq!(got.len(), expected.len(), "strip {s}: {list:?}");
         for (g, e) in got.iter().zip(&expected) {
             assert!(same_winding(*g, *e), "strip {s}: {g:?} for {e:?}");
@@ -218,11 +219,8 @@ fn surface(mesh: &TriMesh) -> Vec<[u32; 3]> {
     let mut out: Vec<[u32; 3]> = mesh
         .triangles
         .iter()
-        .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
-        .map(|&t| {
-            let r = (0..3).min_by_key(|&k| t[k]).unwrap();
-            [t[r], t[(r + 1) % 3], t[(r + 2) % 3]]
-        })
+        .filter(|&&t| !crate::mesh::names_a_vertex_twice(t))
+        .map(|&t| crate::mesh::smallest_first(t))
         .collect();
     out.sort_unstable();
     out

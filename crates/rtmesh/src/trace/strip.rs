@@ -222,17 +222,12 @@ impl StripAccel {
         counters: &mut C,
         mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
     ) -> bool {
-        if self.inside == Inside::Flat || triangles.len() <= 8 {
-            for chunk in triangles.chunks(4) {
-                let block = Triangle4::new(chunk);
-                block.count_tests(counters);
-                if f(&block, t_max) {
-                    return true;
-                }
-            }
-            return false;
-        }
-        // The implicit balanced hierarchy, nearest half first.
+        // The implicit balanced hierarchy, nearest half first; a flat strip is one
+        // range never split.
+        let split_above = match self.inside {
+            Inside::Flat => usize::MAX,
+            Inside::Implicit => 8,
+        };
         let mut stack = [(0usize, 0usize, 0.0f32); 16];
         let mut len = 1;
         stack[0] = (0, triangles.len(), 0.0);
@@ -242,7 +237,7 @@ impl StripAccel {
             if entry > *t_max {
                 continue;
             }
-            if hi - lo <= 8 {
+            if hi - lo <= split_above {
                 for chunk in triangles[lo..hi].chunks(4) {
                     let block = Triangle4::new(chunk);
                     block.count_tests(counters);

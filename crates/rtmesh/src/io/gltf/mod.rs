@@ -436,17 +436,8 @@ fn assemble(mode: Mode, corners: &[u32]) -> (Vec<[u32; 3]>, usize) {
         Mode::TriangleStrip => {
             // A strip's triangles that name a vertex twice are its joins and swaps
             // (glTF has no restart index): dropped and counted, as PLY tristrips' are.
-            let all = corners.windows(3).enumerate().map(|(i, w)| {
-                if i % 2 == 0 {
-                    [w[0], w[1], w[2]]
-                } else {
-                    [w[1], w[0], w[2]]
-                }
-            });
-            let kept: Vec<[u32; 3]> = all
-                .filter(|t| t[0] != t[1] && t[1] != t[2] && t[0] != t[2])
-                .collect();
-            let dropped = corners.len().saturating_sub(2) - kept.len();
+            let mut kept = Vec::with_capacity(corners.len());
+            let dropped = crate::strip::standard_triangles(corners, &mut kept);
             return (kept, dropped);
         }
         Mode::TriangleFan => corners

@@ -1,0 +1,51 @@
+//! Input triangle ids found again from corners alone, for libraries that return
+//! triangles as vertex triples (meshoptimizer's strips and clusters): a table of every
+//! triangle's corners rotated to start at the smallest index ([`super::smallest_first`]),
+//! sorted, where each triple takes the first input triangle of the same corners and
+//! winding not yet taken. Cost: O(T log T) to build, O(log T) a lookup.
+
+use super::smallest_first;
+use rayon::prelude::*;
+
+/// The input ids of a mesh's triangles, looked up by corners.
+pub(crate) struct TriangleIds {
+    /// (corners smallest first, id), sorted.
+    ids: Vec<([u32; 3], u32)>,
+    /// Whether entry `i` of `ids` was taken.
+    taken: Vec<bool>,
+}
+
+impl TriangleIds {
+    /// The table of `triangles`.
+    pub(crate) fn new(triangles: &[[u32; 3]]) -> Self {
+        let mut ids: Vec<([u32; 3], u32)> = triangles
+            .iter()
+            .enumerate()
+            .map(|(t, &v)| (smallest_first(v), t as u32))
+            .collect();
+        ids.par_sort_unstable();
+        let taken = vec![false; ids.len()];
+        Self { ids, taken }
+    }
+
+    /// The lowest untaken id of a triangle with corners `t` in `t`'s winding, taken.
+    pub(crate) fn take(&mut self, t: [u32; 3]) -> Option<u32> {
+        let key = smallest_first(t);
+        let first = self.ids.partition_point(|e| e.0 < key);
+        let slot = (first..self.ids.len())
+            .take_while(|&i| self.ids[i].0 == key)
+            .find(|&i| !self.taken[i])?;
+        self.taken[slot] = true;
+        Some(self.ids[slot].1)
+    }
+
+    /// The ids never taken, ascending.
+    pub(crate) fn untaken(&self) -> Vec<u32> {
+        let mut left: Vec<u32> = (0..self.ids.len())
+            .filter(|&i| !self.taken[i])
+            .map(|i| self.ids[i].1)
+            .collect();
+        left.sort_unstable();
+        left
+    }
+}
