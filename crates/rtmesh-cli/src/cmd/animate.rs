@@ -8,20 +8,26 @@ use rtmesh::progress::Progress;
 use serde::Serialize;
 use std::path::PathBuf;
 
-/// Write the frames that `rtmesh dynamic` traces: the mesh's first geometry moved by
-/// --motion, frame f of N at phase f / (N − 1), each as DIR/frame-FFFF.EXT.
+/// Write the frames that `rtmesh dynamic` traces, frame f of N at phase f / (N − 1),
+/// each as DIR/frame-FFFF.EXT.
 ///
-/// The rest of the scene (other geometries, nodes, materials, every vertex attribute)
-/// is written as it was; normals and tangents are not re-derived for the moved
-/// positions. glTF animation (skins, channels, morph targets) is not built yet.
+/// A procedural motion moves the first geometry; the rest of the scene (other
+/// geometries, nodes, materials, every vertex attribute) is written as it was, and
+/// normals are not re-derived. --motion gltf plays the file's animation (skins, node
+/// channels, morph targets) and writes each frame baked: one world-space geometry with
+/// its normals skinned, its materials by name and every other vertex attribute, but
+/// without the node tree, skin, morph targets, animations or textures, which a baked
+/// frame has no use for (the source file keeps them).
 ///
-/// Example:
+/// Examples:
 ///   rtmesh animate dragon.ply --motion twist --frames 8 -o frames/ --format ply
+///   rtmesh animate Fox.glb --motion gltf:Run --frames 24 -o run/
 #[derive(clap::Args)]
 pub struct Args {
     /// The mesh file, or builtin:NAME.
     mesh: String,
-    /// twist, bend, wave or explode.
+    /// twist, bend, wave, explode, or gltf / gltf:NAME (the file's first animation, or
+    /// the one called or numbered NAME).
     #[arg(long)]
     motion: Motion,
     /// Frames, from the rest pose to the strongest motion.
@@ -58,19 +64,28 @@ pub fn run(args: Args) -> Result<()> {
         );
     }
     let scene = load(&args.mesh)?;
-    let Some(mesh) = scene.meshes.first() else {
-        bail!("{}: no geometry to animate", args.mesh);
+    let start = std::time::Instant::now();
+    let (mesh, animation) = Animation::of(&scene, &args.motion)
+        .with_context(|| format!("{}: --motion {}", args.mesh, args.motion))?;
+    // A procedural frame is the scene with its first geometry moved; a glTF frame is
+    // the animated scene baked into one geometry.
+    let mut frame = match args.motion {
+        Motion::Procedural(_) => scene,
+        Motion::Gltf(_) => rtmesh::Scene {
+            materials: scene.materials.clone(),
+            ..rtmesh::Scene::from_mesh(mesh)
+        },
     };
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot make the folder", args.output.display()))?;
-    let start = std::time::Instant::now();
-    let animation = Animation::new(mesh, args.motion);
     let bar = steps_bar(args.frames);
     let mut files = Vec::with_capacity(args.frames);
     for f in 0..args.frames {
         bar.message(&format!("frame {f}"));
-        let mut frame = scene.clone();
-        frame.meshes[0].positions = animation.positions(f as f32 / (args.frames.max(2) - 1) as f32);
+        animation.pose(
+            f as f32 / (args.frames.max(2) - 1) as f32,
+            &mut frame.meshes[0],
+        );
         let path = args.output.join(format!("frame-{f:04}.{format}"));
         rtmesh::io::write(&frame, &path)?;
         files.push(path);
@@ -79,7 +94,7 @@ pub fn run(args: Args) -> Result<()> {
     bar.0.finish_and_clear();
     let report = Report {
         mesh: args.mesh,
-        motion: format!("{:?}", args.motion).to_lowercase(),
+        motion: args.motion.to_string(),
         frames: args.frames,
         files,
         seconds: start.elapsed().as_secs_f64(),

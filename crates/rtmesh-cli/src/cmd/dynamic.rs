@@ -3,7 +3,7 @@
 
 use crate::args::{load, parse_size, Rays};
 use crate::output::{emit, steps_bar};
-use anyhow::{bail, Result};
+use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use rtmesh::animate::{Animation, Motion};
 use rtmesh::bvh::BuildSettings;
@@ -70,12 +70,19 @@ pub enum InsideArg {
 /// Motions: twist (about +Y, up to 90° at the top), bend (about X through the bottom),
 /// wave (a sine along the longest axis), explode (pieces, or cells of a 10³ grid for one
 /// piece, thrown out from the centre with a spin). Frame f of N is the motion at phase
-/// f / (N − 1). glTF animation is not built yet.
+/// f / (N − 1). With --motion gltf, frame f plays the animation at the time f / (N − 1)
+/// of the way from its first key to its last.
+///
+/// Examples:
+///   rtmesh dynamic dragon.ply --motion explode --frames 8 --build clusters
+///   rtmesh dynamic BrainStem.glb --motion gltf --frames 16 --build rebuild --json
 #[derive(clap::Args)]
 pub struct Args {
-    /// The mesh file, or builtin:NAME (its first geometry, placed once).
+    /// The mesh file, or builtin:NAME (its first geometry, placed once; with --motion
+    /// gltf the whole scene in world space).
     mesh: String,
-    /// twist, bend, wave or explode.
+    /// twist, bend, wave, explode, or gltf / gltf:NAME (the file's first animation, or
+    /// the one called or numbered NAME: skins, node channels and morph targets).
     #[arg(long)]
     motion: Motion,
     /// Frames, from the rest pose to the strongest motion.
@@ -172,11 +179,8 @@ pub fn run(args: Args) -> Result<()> {
         bail!("--rays shadow is not measured by dynamic: use primary or diffuse");
     }
     let scene = load(&args.mesh)?;
-    let Some(mesh) = scene.meshes.first() else {
-        bail!("{}: no geometry", args.mesh);
-    };
-    let mesh = mesh.clone();
-    let animation = Animation::new(&mesh, args.motion);
+    let (mesh, animation) = Animation::of(&scene, &args.motion)
+        .with_context(|| format!("{}: --motion {}", args.mesh, args.motion))?;
     let settings = super::cluster::settings(&args.method, args.max_count, args.max_size)?;
     let (clusters, precompute_ms) = if args.build == Build::Clusters {
         let start = std::time::Instant::now();
@@ -261,7 +265,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let report = Report {
         mesh: args.mesh,
-        motion: args.motion,
+        motion: args.motion.clone(),
         build: args.build,
         ray_kind: kind.name(),
         triangles: mesh.triangle_count(),
@@ -275,7 +279,7 @@ pub fn run(args: Args) -> Result<()> {
 
 fn print(r: &Report) {
     println!(
-        "{}: {} triangles, {:?} over {} frames, {:?}{}",
+        "{}: {} triangles, {} over {} frames, {:?}{}",
         r.mesh,
         r.triangles,
         r.motion,

@@ -1,5 +1,5 @@
 use super::*;
-use crate::animate::{Animation, Motion};
+use crate::animate::{Animation, Procedural};
 use crate::trace::run::trace_closest;
 use crate::trace::{NoCounters, RayKind, Workload};
 use crate::Scene;
@@ -103,8 +103,8 @@ fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
 fn check_frames(mesh: &TriMesh, clusters: &Clusters) {
     for inside in [Inside::Flat, Inside::Node] {
         let mut frames = ClusterFrames::new(clusters, inside);
-        for motion in [Motion::Twist, Motion::Explode, Motion::Wave, Motion::Bend] {
-            let animation = Animation::new(mesh, motion);
+        for motion in Procedural::ALL {
+            let animation = Animation::procedural(mesh, motion);
             for phase in [0.0, 0.5, 1.0] {
                 let mut frame = mesh.clone();
                 frame.positions = animation.positions(phase);

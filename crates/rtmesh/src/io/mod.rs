@@ -10,7 +10,7 @@
 //! (tobj's behaviour), unused vertices dropped. NaN and infinite positions are kept
 //! (DXR treats NaN triangles as inactive); [`crate::mesh::validate`] reports them.
 
-mod gltf;
+pub(crate) mod gltf;
 mod obj;
 mod ply;
 mod reference;

@@ -453,14 +453,19 @@ fn assemble(mode: Mode, corners: &[u32]) -> (Vec<[u32; 3]>, usize) {
     (triangles, 0)
 }
 
-fn check_accessor(accessor: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> Result<(), String> {
+/// Checks that `accessor` is dense, has a view inside its buffer, a legal stride and
+/// alignment, and elements that fit in the view, so that reading it cannot panic.
+pub(crate) fn check_accessor<B: std::ops::Deref<Target = [u8]>>(
+    accessor: &gltf::Accessor,
+    buffers: &[B],
+) -> Result<(), String> {
     if accessor.sparse().is_some() {
         return Err("sparse accessors are not supported".into());
     }
     let Some(view) = accessor.view() else {
         return Err(format!("accessor {} has no buffer view", accessor.index()));
     };
-    let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.0.len());
+    let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
     let view_end = view.offset().checked_add(view.length());
     if view_end.is_none_or(|end| end > buffer_len) {
         return Err(format!(

@@ -1,4 +1,4 @@
-//! Procedural motion of any mesh, for the dynamic-scene experiments: `twist` (about the
+//! Procedural motion of any mesh: `twist` (about the
 //! vertical axis, growing with height), `bend` (about a horizontal axis through the
 //! bottom), `wave` (a travelling sine along the longest axis), and `explode` (each
 //! connected piece, or for a single piece each cell of a grid of about a thousand
@@ -11,12 +11,10 @@ use crate::geom::Aabb;
 use crate::mesh::TriMesh;
 use glam::{Quat, Vec3};
 use rayon::prelude::*;
-use std::str::FromStr;
 
 /// A procedural motion.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Motion {
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Procedural {
     /// Rotation about +Y by up to 90° at the top, none at the bottom.
     Twist,
     /// Bend about the X axis through the bottom, up to 90° at the top.
@@ -28,36 +26,41 @@ pub enum Motion {
     Explode,
 }
 
-impl FromStr for Motion {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "twist" => Ok(Motion::Twist),
-            "bend" => Ok(Motion::Bend),
-            "wave" => Ok(Motion::Wave),
-            "explode" => Ok(Motion::Explode),
-            _ => Err(format!(
-                "unknown motion `{s}`: expected twist, bend, wave or explode"
-            )),
+impl Procedural {
+    /// Every procedural motion, in the order `--help` lists them.
+    pub const ALL: [Procedural; 4] = [
+        Procedural::Twist,
+        Procedural::Bend,
+        Procedural::Wave,
+        Procedural::Explode,
+    ];
+
+    /// The motion's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Procedural::Twist => "twist",
+            Procedural::Bend => "bend",
+            Procedural::Wave => "wave",
+            Procedural::Explode => "explode",
         }
     }
 }
 
-/// A mesh's rest pose and what each frame needs.
-pub struct Animation {
+/// A mesh's rest pose and what each frame of a procedural motion needs.
+pub(super) struct Deform {
     rest: Vec<Vec3>,
     bounds: Aabb,
-    motion: Motion,
+    motion: Procedural,
     /// Explode: the part (piece or cell) of every vertex, and each part's centre.
     parts: Vec<u32>,
     part_centres: Vec<Vec3>,
 }
 
-impl Animation {
+impl Deform {
     /// `motion` of `mesh` from its current positions.
-    pub fn new(mesh: &TriMesh, motion: Motion) -> Self {
+    pub fn new(mesh: &TriMesh, motion: Procedural) -> Self {
         let bounds = mesh.bounds();
-        let (parts, part_centres) = if motion == Motion::Explode {
+        let (parts, part_centres) = if motion == Procedural::Explode {
             explode_parts(mesh, &bounds)
         } else {
             (Vec::new(), Vec::new())
@@ -71,6 +74,11 @@ impl Animation {
         }
     }
 
+    /// The motion it plays.
+    pub fn motion(&self) -> Procedural {
+        self.motion
+    }
+
     /// The positions at `phase` in [0, 1].
     pub fn positions(&self, phase: f32) -> Vec<Vec3> {
         let b = &self.bounds;
@@ -81,19 +89,19 @@ impl Animation {
             .map(|v| {
                 let p = self.rest[v];
                 match self.motion {
-                    Motion::Twist => {
+                    Procedural::Twist => {
                         let h = (p.y - b.min.y) / extent.y;
                         let angle = phase * std::f32::consts::FRAC_PI_2 * h;
                         let q = Quat::from_rotation_y(angle);
                         centre + q * (p - centre)
                     }
-                    Motion::Bend => {
+                    Procedural::Bend => {
                         let h = (p.y - b.min.y) / extent.y;
                         let angle = phase * std::f32::consts::FRAC_PI_2 * h;
                         let pivot = Vec3::new(centre.x, b.min.y, centre.z);
                         pivot + Quat::from_rotation_x(angle) * (p - pivot)
                     }
-                    Motion::Wave => {
+                    Procedural::Wave => {
                         let axis = extent.max_element();
                         let (along, across) = if axis == extent.x {
                             ((p.x - b.min.x) / extent.x, Vec3::Y)
@@ -106,7 +114,7 @@ impl Animation {
                             0.1 * axis * phase * (std::f32::consts::TAU * 2.0 * along).sin();
                         p + across * offset
                     }
-                    Motion::Explode => {
+                    Procedural::Explode => {
                         let part = self.parts[v] as usize;
                         let c = self.part_centres[part];
                         let away = (c - centre).normalize_or(Vec3::Y);
@@ -167,8 +175,13 @@ mod tests {
     #[test]
     fn phase_zero_is_the_rest_pose_and_twist_keeps_the_bottom() {
         let mesh = crate::scenes::scan_blob(2_000, 1);
-        for motion in [Motion::Twist, Motion::Bend, Motion::Wave, Motion::Explode] {
-            let animation = Animation::new(&mesh, motion);
+        for motion in [
+            Procedural::Twist,
+            Procedural::Bend,
+            Procedural::Wave,
+            Procedural::Explode,
+        ] {
+            let animation = Deform::new(&mesh, motion);
             let rest = animation.positions(0.0);
             for (a, b) in rest.iter().zip(&mesh.positions) {
                 assert!((*a - *b).length() < 1e-5, "{motion:?}");
@@ -180,7 +193,7 @@ mod tests {
                 .any(|(a, b)| (*a - *b).length() > 1e-2));
         }
         let bounds = mesh.bounds();
-        let twisted = Animation::new(&mesh, Motion::Twist).positions(1.0);
+        let twisted = Deform::new(&mesh, Procedural::Twist).positions(1.0);
         for (p, q) in mesh.positions.iter().zip(&twisted) {
             if p.y == bounds.min.y {
                 assert!((*p - *q).length() < 1e-5, "the bottom stays");

@@ -1,0 +1,172 @@
+//! Animation for the dynamic-scene experiments: procedural motion of any mesh
+//! (`procedural.rs`: twist, bend, wave, explode) and a glTF file's own animation
+//! (`gltf.rs`: node channels, morph targets, linear-blend skinning). Either way a frame
+//! is a set of positions for one mesh whose triangles never change, which is what a
+//! per-frame BVH build, a refit or precomputed clusters need.
+
+mod gltf;
+mod procedural;
+
+pub use procedural::Procedural;
+
+use crate::mesh::{Scene, Semantic, TriMesh};
+use glam::Vec3;
+use std::fmt;
+use std::str::FromStr;
+
+/// A motion: procedural, or one of a glTF file's animations.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Motion {
+    /// Procedural motion of the scene's first geometry.
+    Procedural(Procedural),
+    /// A glTF animation of the whole scene: the named one (or the one at that index),
+    /// the first when `None`.
+    Gltf(Option<String>),
+}
+
+impl FromStr for Motion {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if let Some(p) = Procedural::ALL.into_iter().find(|p| p.name() == s) {
+            return Ok(Motion::Procedural(p));
+        }
+        match s.split_once(':') {
+            _ if s == "gltf" => Ok(Motion::Gltf(None)),
+            Some(("gltf", name)) if !name.is_empty() => Ok(Motion::Gltf(Some(name.to_owned()))),
+            _ => Err(format!(
+                "unknown motion `{s}`: expected twist, bend, wave, explode, gltf or gltf:NAME"
+            )),
+        }
+    }
+}
+
+impl fmt::Display for Motion {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Motion::Procedural(p) => f.write_str(p.name()),
+            Motion::Gltf(None) => f.write_str("gltf"),
+            Motion::Gltf(Some(name)) => write!(f, "gltf:{name}"),
+        }
+    }
+}
+
+impl serde::Serialize for Motion {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.collect_str(self)
+    }
+}
+
+/// Why a motion cannot be made for a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum AnimationError {
+    /// `gltf` on a file that is not glTF.
+    #[error("motion gltf needs a glTF or GLB file")]
+    NotGltf,
+    /// `gltf` on a glTF file without animations.
+    #[error("the file has no animations")]
+    NoAnimations,
+    /// `gltf:NAME` where no animation is called NAME.
+    #[error("no animation is called or numbered `{wanted}`; the file has: {available}")]
+    UnknownAnimation {
+        /// The name asked for.
+        wanted: String,
+        /// The file's animations, by name (or index when unnamed).
+        available: String,
+    },
+    /// The animation's data is malformed.
+    #[error("{0}")]
+    Invalid(String),
+    /// Nothing to animate.
+    #[error("the scene has no geometry to animate")]
+    NoGeometry,
+}
+
+/// A motion made for one mesh: [`Animation::positions`] gives its vertices at any
+/// phase.
+pub struct Animation(Kind);
+
+enum Kind {
+    Procedural(procedural::Deform),
+    Gltf(Box<gltf::GltfMotion>),
+}
+
+impl Animation {
+    /// Procedural `motion` of `mesh`, from its current positions.
+    pub fn procedural(mesh: &TriMesh, motion: Procedural) -> Self {
+        Self(Kind::Procedural(procedural::Deform::new(mesh, motion)))
+    }
+
+    /// `motion` for `scene`, with the mesh it moves: the first geometry for a
+    /// procedural motion; for a glTF animation the whole scene flattened into world
+    /// space ([`Scene::flatten`]) without the skin and morph attributes, which a frame
+    /// has applied.
+    pub fn of(scene: &Scene, motion: &Motion) -> Result<(TriMesh, Self), AnimationError> {
+        match motion {
+            Motion::Procedural(p) => {
+                let mesh = scene.meshes.first().ok_or(AnimationError::NoGeometry)?;
+                Ok((mesh.clone(), Self::procedural(mesh, *p)))
+            }
+            Motion::Gltf(name) => {
+                let motion = gltf::GltfMotion::new(scene, name.as_deref())?;
+                let mut mesh = scene.flatten();
+                if mesh.triangles.is_empty() {
+                    return Err(AnimationError::NoGeometry);
+                }
+                mesh.attributes.retain(|a| {
+                    !matches!(
+                        a.semantic(),
+                        Semantic::Joints | Semantic::Weights | Semantic::MorphDelta
+                    )
+                });
+                Ok((mesh, Self(Kind::Gltf(Box::new(motion)))))
+            }
+        }
+    }
+
+    /// The name of what plays: the procedural motion, or the glTF animation's name.
+    pub fn name(&self) -> String {
+        match &self.0 {
+            Kind::Procedural(d) => d.motion().name().to_owned(),
+            Kind::Gltf(g) => g.name.clone(),
+        }
+    }
+
+    /// The positions at `phase` in [0, 1]: for a glTF animation, the time that far from
+    /// its first key to its last.
+    pub fn positions(&self, phase: f32) -> Vec<Vec3> {
+        match &self.0 {
+            Kind::Procedural(d) => d.positions(phase),
+            Kind::Gltf(g) => g.evaluate(Self::time(g, phase), false).0,
+        }
+    }
+
+    /// `mesh` (the one [`Animation::of`] gave) moved to `phase`: its positions, and for
+    /// a glTF animation its float `NORMAL`s turned with the skin.
+    pub fn pose(&self, phase: f32, mesh: &mut TriMesh) {
+        match &self.0 {
+            Kind::Procedural(d) => mesh.positions = d.positions(phase),
+            Kind::Gltf(g) => {
+                let (positions, normals) = g.evaluate(Self::time(g, phase), true);
+                mesh.positions = positions;
+                let normal = mesh.attributes.iter_mut().find(|a| a.name == "NORMAL");
+                if let Some(crate::mesh::AttributeValues::F32(values)) =
+                    normal.map(|a| &mut a.values)
+                {
+                    if values.len() == 3 * normals.len() {
+                        for (slot, n) in values.chunks_exact_mut(3).zip(&normals) {
+                            slot.copy_from_slice(&n.to_array());
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    fn time(g: &gltf::GltfMotion, phase: f32) -> f32 {
+        let (start, end) = g.span();
+        start + (end - start) * phase.clamp(0.0, 1.0)
+    }
+}
+
+#[cfg(test)]
+mod tests;

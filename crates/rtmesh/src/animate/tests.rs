@@ -1,0 +1,194 @@
+use super::*;
+use base64::Engine;
+use glam::{Mat4, Quat};
+use serde_json::json;
+
+/// A glTF of two meshes, built by hand so that every frame's positions are known
+/// exactly:
+/// - mesh 0, skinned to joints 1 (the root, rotated about Z from 0° to 90°, LINEAR) and
+///   2 (its child at +2 Y, moved to +3 Y at t = 0.5, STEP); vertex 0 follows joint 1,
+///   vertex 1 joint 2, vertex 2 half each;
+/// - mesh 1 at node 3, unskinned, with one morph target (+1 Z, weight 0 → 1 LINEAR)
+///   and a CUBICSPLINE translation from 0 to +2 X with out-tangent +4 Y at the first
+///   key.
+fn hand_built() -> Scene {
+    let mut bin: Vec<u8> = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut push = |floats: &[f32], kind: &str, count: usize| {
+        let offset = bin.len();
+        bin.extend(floats.iter().flat_map(|f| f.to_le_bytes()));
+        views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": 4 * floats.len()}));
+        let mut accessor = json!({"bufferView": views.len() - 1, "componentType": 5126, "count": count, "type": kind});
+        if kind == "VEC3" {
+            // glTF asks for the bounds of POSITION accessors.
+            let corner = |pick: fn(f32, f32) -> f32| {
+                (0..3)
+                    .map(|c| {
+                        floats
+                            .iter()
+                            .skip(c)
+                            .step_by(3)
+                            .copied()
+                            .reduce(pick)
+                            .unwrap()
+                    })
+                    .collect::<Vec<f32>>()
+            };
+            accessor["min"] = json!(corner(f32::min));
+            accessor["max"] = json!(corner(f32::max));
+        }
+        accessors.push(accessor);
+        accessors.len() - 1
+    };
+    let p0 = push(&[1., 0., 0., 0., 1., 0., 0., 0., 1.], "VEC3", 3);
+    let w0 = push(
+        &[1., 0., 0., 0., 1., 0., 0., 0., 0.5, 0.5, 0., 0.],
+        "VEC4",
+        3,
+    );
+    let p1 = push(&[0., 0., 0., 1., 0., 0., 0., 1., 0.], "VEC3", 3);
+    let d1 = push(&[0., 0., 1., 0., 0., 1., 0., 0., 1.], "VEC3", 3);
+    let mut ibm = Mat4::IDENTITY.to_cols_array().to_vec();
+    ibm.extend(Mat4::from_translation(Vec3::new(0., -2., 0.)).to_cols_array());
+    let ibm = push(&ibm, "MAT4", 2);
+    let t01 = push(&[0., 1.], "SCALAR", 2);
+    let t0h = push(&[0., 0.5], "SCALAR", 2);
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    let rot = push(&[0., 0., 0., 1., 0., 0., s, s], "VEC4", 2);
+    let step = push(&[0., 2., 0., 0., 3., 0.], "VEC3", 2);
+    #[rustfmt::skip]
+    let cubic = push(&[0., 0., 0.,  0., 0., 0.,  0., 4., 0.,   0., 0., 0.,  2., 0., 0.,  0., 0., 0.], "VEC3", 6);
+    let weights = push(&[0., 1.], "SCALAR", 2);
+    // Joints as u8 VEC4, a view of their own.
+    let joints_offset = bin.len();
+    bin.extend([0u8, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0]);
+    views.push(json!({"buffer": 0, "byteOffset": joints_offset, "byteLength": 12}));
+    accessors.push(
+        json!({"bufferView": views.len() - 1, "componentType": 5121, "count": 3, "type": "VEC4"}),
+    );
+    let j0 = accessors.len() - 1;
+    let uri = format!(
+        "data:application/octet-stream;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(&bin)
+    );
+    let document = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": [0, 1, 3]}],
+        "nodes": [
+            {"mesh": 0, "skin": 0},
+            {"children": [2]},
+            {"translation": [0., 2., 0.]},
+            {"mesh": 1},
+        ],
+        "meshes": [
+            {"primitives": [{"attributes": {"POSITION": p0, "JOINTS_0": j0, "WEIGHTS_0": w0}}]},
+            {"primitives": [{"attributes": {"POSITION": p1}, "targets": [{"POSITION": d1}]}], "weights": [0.0]},
+        ],
+        "skins": [{"joints": [1, 2], "inverseBindMatrices": ibm}],
+        "animations": [{
+            "name": "hand",
+            "samplers": [
+                {"input": t01, "output": rot, "interpolation": "LINEAR"},
+                {"input": t0h, "output": step, "interpolation": "STEP"},
+                {"input": t01, "output": cubic, "interpolation": "CUBICSPLINE"},
+                {"input": t01, "output": weights, "interpolation": "LINEAR"},
+            ],
+            "channels": [
+                {"sampler": 0, "target": {"node": 1, "path": "rotation"}},
+                {"sampler": 1, "target": {"node": 2, "path": "translation"}},
+                {"sampler": 2, "target": {"node": 3, "path": "translation"}},
+                {"sampler": 3, "target": {"node": 3, "path": "weights"}},
+            ],
+        }],
+        "buffers": [{"byteLength": bin.len(), "uri": uri}],
+        "bufferViews": views,
+        "accessors": accessors,
+    });
+    crate::io::read_bytes(
+        std::path::Path::new("hand.gltf"),
+        document.to_string().as_bytes(),
+    )
+    .expect("the hand-built glTF reads")
+}
+
+fn assert_near(got: &[Vec3], expected: &[Vec3]) {
+    assert_eq!(got.len(), expected.len());
+    for (v, (g, e)) in got.iter().zip(expected).enumerate() {
+        assert!((*g - *e).length() < 1e-5, "vertex {v}: {g} != {e}");
+    }
+}
+
+#[test]
+fn gltf_skin_channels_and_morphs_give_the_exact_positions() {
+    let scene = hand_built();
+    let (mesh, animation) = Animation::of(&scene, &Motion::Gltf(None)).unwrap();
+    assert_eq!(animation.name(), "hand");
+    assert_eq!(mesh.triangle_count(), 2);
+    assert!(
+        mesh.attributes
+            .iter()
+            .all(|a| a.name != "JOINTS_0" && a.semantic() != Semantic::MorphDelta),
+        "a frame has the skin and morphs applied"
+    );
+    // t = 0: the rest pose (joint 2's bind pose undone by its inverse bind matrix).
+    assert_near(
+        &animation.positions(0.0),
+        &[Vec3::X, Vec3::Y, Vec3::Z, Vec3::ZERO, Vec3::X, Vec3::Y],
+    );
+    // t = 0.5: joint 1 at 45°, joint 2 stepped to +3 Y; morph weight 0.5; the spline at
+    // s = 0.5 gives x = 1 and y = 4 · (s³ − 2s² + s) = 0.5.
+    let r = Quat::from_rotation_z(std::f32::consts::FRAC_PI_4);
+    assert_near(
+        &animation.positions(0.5),
+        &[
+            r * Vec3::X,
+            r * Vec3::new(0., 2., 0.),
+            r * Vec3::new(0., 0.5, 1.),
+            Vec3::new(1., 0.5, 0.5),
+            Vec3::new(2., 0.5, 0.5),
+            Vec3::new(1., 1.5, 0.5),
+        ],
+    );
+    // t = 1: 90°, after the last keys.
+    assert_near(
+        &animation.positions(1.0),
+        &[
+            Vec3::Y,
+            Vec3::new(-2., 0., 0.),
+            Vec3::new(-0.5, 0., 1.),
+            Vec3::new(2., 0., 1.),
+            Vec3::new(3., 0., 1.),
+            Vec3::new(2., 1., 1.),
+        ],
+    );
+}
+
+#[test]
+fn gltf_motion_names_what_is_wrong() {
+    let scene = hand_built();
+    let err = Animation::of(&scene, &Motion::Gltf(Some("walk".into())))
+        .err()
+        .unwrap();
+    assert_eq!(
+        err.to_string(),
+        "no animation is called or numbered `walk`; the file has: hand"
+    );
+    assert!(Animation::of(&scene, &Motion::Gltf(Some("0".into()))).is_ok());
+    let plain = Scene::from_mesh(crate::scenes::scan_blob(100, 1));
+    assert!(matches!(
+        Animation::of(&plain, &Motion::Gltf(None)),
+        Err(AnimationError::NotGltf)
+    ));
+    assert_eq!(
+        "gltf:Run".parse::<Motion>(),
+        Ok(Motion::Gltf(Some("Run".into())))
+    );
+    assert_eq!(
+        "twist".parse::<Motion>(),
+        Ok(Motion::Procedural(Procedural::Twist))
+    );
+    assert!("gltf:".parse::<Motion>().is_err());
+    assert_eq!(Motion::Gltf(Some("Run".into())).to_string(), "gltf:Run");
+}
