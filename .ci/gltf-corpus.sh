@@ -35,6 +35,9 @@ run repair "$morph" --split-elongated --force-split -o "$out/morph-split.glb" --
 run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
 run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
 run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0
+# `animate --motion gltf`: skinned frames baked into one geometry each.
+run animate "$data/animated/Fox.glb" --motion gltf:Run --frames 3 -o "$out/fox-run-frames"
+run animate "$data/animated/BrainStem.glb" --motion gltf --frames 2 -o "$out/brainstem-frames" --format gltf
 # `strip`: TRIANGLE_STRIP primitives, joined by degenerate triangles.
 run strip "$data/2CylinderEngine.glb" -o "$out/strips-engine.glb"
 run strip "$data/animated/BCN_Epileptic.glb" -o "$out/strips-skinned.glb"

@@ -765,3 +765,55 @@ fn animate_writes_every_frame_readable() {
     ]);
     assert_eq!(out.status.code(), Some(1));
 }
+
+/// A skinned glTF played by `dynamic`: every build hits the same triangles in every
+/// frame, and the frames move; `animate` bakes them into files that read back whole.
+#[test]
+fn gltf_animation_traces_and_bakes() {
+    let Some(data) = rtmesh::data::mesh_data_dir() else {
+        return;
+    };
+    let fox = data.join("animated/Fox.glb");
+    let fox = fox.to_str().unwrap();
+    let mut checksums = Vec::new();
+    for build in ["rebuild", "refit", "clusters"] {
+        let report = assert_keys_any(&[
+            "dynamic", fox, "--motion", "gltf:Run", "--frames", "4", "--build", build, "--size",
+            "64x64", "--runs", "1", "--json",
+        ]);
+        assert_eq!(report["motion"], "gltf:Run");
+        assert_eq!(report["triangles"], 576);
+        let sums: Vec<u64> = report["frames"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|f| f["hit_checksum"].as_u64().unwrap())
+            .collect();
+        checksums.push(sums);
+    }
+    assert!(checksums.windows(2).all(|w| w[0] == w[1]), "{checksums:?}");
+    assert_ne!(checksums[0][0], checksums[0][1], "the fox runs");
+    let dir = scratch("animate-gltf");
+    let report = assert_keys_any(&[
+        "animate",
+        fox,
+        "--motion",
+        "gltf:Run",
+        "--frames",
+        "3",
+        "-o",
+        dir.to_str().unwrap(),
+        "--json",
+    ]);
+    for file in report["files"].as_array().unwrap() {
+        let info = assert_keys_any(&["info", file.as_str().unwrap(), "--json"]);
+        assert_eq!(info["triangles"], 576);
+    }
+    let unknown = rtmesh(&["dynamic", fox, "--motion", "gltf:Fly", "--frames", "2"]);
+    assert_eq!(unknown.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&unknown.stderr);
+    assert!(
+        stderr.contains("Fox.glb") && stderr.contains("Run, Survey, Walk"),
+        "{stderr}"
+    );
+}

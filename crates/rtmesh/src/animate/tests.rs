@@ -12,6 +12,13 @@ use serde_json::json;
 ///   and a CUBICSPLINE translation from 0 to +2 X with out-tangent +4 Y at the first
 ///   key.
 fn hand_built() -> Scene {
+    hand_built_with(|_| {}).expect("the hand-built glTF reads")
+}
+
+/// [`hand_built`]'s document changed by `edit` before it is read.
+fn hand_built_with(
+    edit: impl FnOnce(&mut serde_json::Value),
+) -> Result<Scene, crate::io::MeshError> {
     let mut bin: Vec<u8> = Vec::new();
     let mut views = Vec::new();
     let mut accessors = Vec::new();
@@ -72,7 +79,7 @@ fn hand_built() -> Scene {
         "data:application/octet-stream;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(&bin)
     );
-    let document = json!({
+    let mut document = json!({
         "asset": {"version": "2.0"},
         "scene": 0,
         "scenes": [{"nodes": [0, 1, 3]}],
@@ -106,11 +113,11 @@ fn hand_built() -> Scene {
         "bufferViews": views,
         "accessors": accessors,
     });
+    edit(&mut document);
     crate::io::read_bytes(
         std::path::Path::new("hand.gltf"),
         document.to_string().as_bytes(),
     )
-    .expect("the hand-built glTF reads")
 }
 
 fn assert_near(got: &[Vec3], expected: &[Vec3]) {
@@ -191,4 +198,37 @@ fn gltf_motion_names_what_is_wrong() {
     );
     assert!("gltf:".parse::<Motion>().is_err());
     assert_eq!(Motion::Gltf(Some("Run".into())).to_string(), "gltf:Run");
+}
+
+/// Lying animation data is an error naming what is wrong, never a panic.
+#[test]
+fn malformed_animation_data_is_refused() {
+    type Edit = fn(&mut serde_json::Value);
+    let cases: [(Edit, &str); 5] = [
+        // Two rotations are too few for two CUBICSPLINE keys (3 each).
+        (
+            |d| d["animations"][0]["samplers"][0]["interpolation"] = json!("CUBICSPLINE"),
+            "8 output values for 2 keys of 12",
+        ),
+        (|d| d["skins"][0]["joints"] = json!([1]), "names joint 1"),
+        (
+            |d| d["animations"][0]["samplers"][0]["output"] = json!(0),
+            "expected Vec4",
+        ),
+        (|d| d["accessors"][4]["count"] = json!(200), "runs past"),
+        (
+            |d| d["meshes"][0]["primitives"][0]["attributes"] = json!({"POSITION": 0}),
+            "no JOINTS_0",
+        ),
+    ];
+    for (k, (edit, expected)) in cases.into_iter().enumerate() {
+        let message = match hand_built_with(edit) {
+            Err(e) => e.to_string(),
+            Ok(scene) => match Animation::of(&scene, &Motion::Gltf(None)) {
+                Err(e) => e.to_string(),
+                Ok(_) => panic!("case {k} was accepted"),
+            },
+        };
+        assert!(message.contains(expected), "case {k}: {message}");
+    }
 }
