@@ -565,6 +565,7 @@ fn cluster_and_dynamic_keys() {
                 "motion",
                 "build",
                 "ray_kind",
+                "packet",
                 "triangles",
                 "clusters",
                 "precompute_ms",
@@ -587,16 +588,49 @@ fn cluster_and_dynamic_keys() {
             assert!(frames[0].get(key).is_some(), "{build}: {key}");
         }
     }
-    let unbuilt = rtmesh(&["cluster", "builtin:blob", "--method", "contract"]);
-    assert_eq!(unbuilt.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&unbuilt.stderr).contains("contract is not yet"));
-    // meshoptimizer's clusters: every triangle in one, within MaxCount.
-    let theirs = assert_keys(
-        &["cluster", "builtin:blob", "--method", "meshopt", "--json"],
-        CLUSTER_KEYS,
-    );
-    assert_eq!(theirs[0]["triangles"], 99892);
-    assert!(theirs[0]["mean_triangles"].as_f64().unwrap() <= 32.0);
+    let unknown = rtmesh(&["cluster", "builtin:blob", "--method", "fancy"]);
+    assert_eq!(unknown.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&unknown.stderr).contains("use grow, contract or meshopt"));
+    // Contraction's and meshoptimizer's clusters: every triangle in one, within
+    // MaxCount; contraction's connected.
+    for method in ["contract", "meshopt"] {
+        let report = assert_keys(
+            &["cluster", "builtin:blob", "--method", method, "--json"],
+            CLUSTER_KEYS,
+        );
+        assert_eq!(report[0]["triangles"], 99892);
+        assert!(report[0]["mean_triangles"].as_f64().unwrap() <= 32.0);
+        if method == "contract" {
+            assert_eq!(report[0]["disconnected"], 0);
+        }
+    }
+    // 8×8 primary packets over the cluster BVH hit what they hit over a rebuild.
+    let checksums = |build: &str| -> Vec<u64> {
+        let report = assert_keys_any(&[
+            "dynamic",
+            "builtin:blob",
+            "--motion",
+            "explode",
+            "--frames",
+            "3",
+            "--build",
+            build,
+            "--packet",
+            "8x8",
+            "--size",
+            "64x64",
+            "--runs",
+            "1",
+            "--json",
+        ]);
+        assert_eq!(report["packet"], "8x8");
+        let frames = report["frames"].as_array().unwrap();
+        frames
+            .iter()
+            .map(|f| f["hit_checksum"].as_u64().unwrap())
+            .collect()
+    };
+    assert_eq!(checksums("clusters"), checksums("rebuild"));
 }
 
 #[test]
@@ -816,4 +850,54 @@ fn gltf_animation_traces_and_bakes() {
         stderr.contains("Fox.glb") && stderr.contains("Run, Survey, Walk"),
         "{stderr}"
     );
+}
+
+#[test]
+fn bench_clusters_matches_counts_and_keeps_its_keys() {
+    let rows = assert_keys(
+        &[
+            "bench",
+            "clusters",
+            "builtin:blob",
+            "--phases",
+            "0,1",
+            "--json",
+        ],
+        &[
+            "mesh",
+            "method",
+            "matched_to",
+            "max_triangles",
+            "clusters",
+            "mean_triangles",
+            "mean_vertices_per_triangle",
+            "disconnected",
+            "precompute_seconds",
+            "precompute_us_per_triangle",
+            "phases",
+            "sah",
+            "rebuild_sah",
+        ],
+    );
+    let methods: Vec<&str> = rows.iter().map(|r| r["method"].as_str().unwrap()).collect();
+    assert_eq!(methods, ["grow", "meshopt", "contract", "meshopt"]);
+    for pair in rows.chunks(2) {
+        let (ours, theirs) = (&pair[0], &pair[1]);
+        assert_eq!(theirs["matched_to"], ours["method"]);
+        assert_eq!(theirs["max_triangles"].as_u64().unwrap() % 4, 0);
+        let (a, b) = (
+            ours["clusters"].as_f64().unwrap(),
+            theirs["clusters"].as_f64().unwrap(),
+        );
+        assert!((a - b).abs() <= 0.25 * a, "counts {a} and {b} are near");
+        for row in pair {
+            let sah = row["sah"].as_array().unwrap();
+            let rebuild = row["rebuild_sah"].as_array().unwrap();
+            assert_eq!(sah.len(), 2);
+            // A full per-triangle rebuild is the best tree these clusters can approach.
+            for (s, r) in sah.iter().zip(rebuild) {
+                assert!(s.as_f64().unwrap() >= 0.95 * r.as_f64().unwrap());
+            }
+        }
+    }
 }

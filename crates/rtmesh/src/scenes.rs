@@ -237,6 +237,24 @@ pub fn room() -> Scene {
     scene
 }
 
+/// Random meshes for property tests: 4 to 23 vertices in a cube, 1 to 59 triangles of
+/// any three of them (non-manifold, disconnected, with repeated vertices).
+#[cfg(test)]
+pub(crate) fn arbitrary_mesh() -> impl proptest::strategy::Strategy<Value = TriMesh> {
+    use proptest::prelude::*;
+    (4usize..24).prop_flat_map(|v| {
+        (
+            proptest::collection::vec(
+                (-4.0f32..4.0, -4.0f32..4.0, -4.0f32..4.0)
+                    .prop_map(|(x, y, z)| glam::Vec3::new(x, y, z)),
+                v,
+            ),
+            proptest::collection::vec([0..v as u32, 0..v as u32, 0..v as u32], 1..60),
+        )
+            .prop_map(|(positions, triangles)| TriMesh::new(positions, triangles))
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -2,26 +2,26 @@
 
 use crate::args::load;
 use crate::output::emit;
-use anyhow::{bail, Result};
-use rtmesh::cluster::{disconnected, grow, ClusterReport, ClusterSettings, Clusters};
-use rtmesh::TriMesh;
+use anyhow::Result;
+use rtmesh::cluster::{disconnected, ClusterMethod, ClusterReport, ClusterSettings};
 use serde::Serialize;
 
 /// Group a mesh's triangles into clusters for animated meshes: connected, disk-like,
 /// compact sets of at most --max-count triangles on at most 256 vertices, grown one
-/// neighbour at a time by the acceptance heuristic Acc(k) (the formula is in
-/// crates/rtmesh/src/cluster/mod.rs), stored as u8 indices into each cluster's vertex
-/// list. Every frame, `rtmesh dynamic --build clusters` then recomputes only the
+/// neighbour at a time (or contracted from single triangles) by the acceptance
+/// heuristic Acc(k) (the formula is in crates/rtmesh/src/cluster/mod.rs), stored as u8
+/// indices into each cluster's vertex list. Every frame, `rtmesh dynamic --build clusters` then recomputes only the
 /// clusters' boxes and builds a BVH over them.
 #[derive(clap::Args)]
 pub struct Args {
     /// The mesh file, or builtin:NAME.
     mesh: String,
-    /// grow (iterative growing by Acc(k)) or meshopt (meshoptimizer's spatial
-    /// clusterizer, min = max / 4, fill weight 0.5: the baseline). contract is not built
-    /// yet.
+    /// grow (iterative growing by Acc(k)), contract (iterative contraction of the
+    /// dual graph's best edge by Acc(k₁ ∪ k₂): more memory and time, see
+    /// docs/measurements/clusters.md) or meshopt (meshoptimizer's spatial
+    /// clusterizer, min = max / 4, fill weight 0.5: the baseline).
     #[arg(long, default_value = "grow")]
-    method: String,
+    method: ClusterMethod,
     /// MaxCount: most triangles per cluster (1..=60).
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=60))]
     max_count: u32,
@@ -35,23 +35,11 @@ pub struct Args {
 }
 
 /// The settings `cluster` and `dynamic` share.
-pub fn settings(method: &str, max_count: u32, max_size: f32) -> Result<ClusterSettings> {
-    if method != "grow" && method != "meshopt" {
-        bail!("unknown or unbuilt clustering method `{method}`: grow and meshopt are built (contract is not yet)");
-    }
-    Ok(ClusterSettings {
+pub fn settings(max_count: u32, max_size: f32) -> ClusterSettings {
+    ClusterSettings {
         max_triangles: max_count as usize,
         max_size,
         ..ClusterSettings::default()
-    })
-}
-
-/// The clusters of `mesh` by `method` (grow, or meshopt: meshoptimizer's spatial
-/// clusterizer, MaxCount rounded down to a multiple of 4).
-pub fn clusters_by(mesh: &TriMesh, method: &str, settings: &ClusterSettings) -> Clusters {
-    match method {
-        "meshopt" => rtmesh::cluster::meshopt::spatial(mesh, settings),
-        _ => grow(mesh, settings),
     }
 }
 
@@ -59,20 +47,20 @@ pub fn clusters_by(mesh: &TriMesh, method: &str, settings: &ClusterSettings) -> 
 #[derive(Serialize)]
 pub struct Report {
     mesh: String,
-    method: String,
+    method: ClusterMethod,
     #[serde(flatten)]
     clusters: ClusterReport,
 }
 
 /// Cluster every geometry (their figures summed) and report.
 pub fn run(args: Args) -> Result<()> {
-    let settings = settings(&args.method, args.max_count, args.max_size)?;
+    let settings = settings(args.max_count, args.max_size);
     let scene = load(&args.mesh)?;
     let start = std::time::Instant::now();
     let all: Vec<_> = scene
         .meshes
         .iter()
-        .map(|m| clusters_by(m, &args.method, &settings))
+        .map(|m| args.method.cluster(m, &settings))
         .collect();
     let seconds = start.elapsed().as_secs_f64();
     let disconnected: usize = scene

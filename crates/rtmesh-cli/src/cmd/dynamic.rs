@@ -1,15 +1,17 @@
 //! `rtmesh dynamic`: an animated mesh traced frame by frame, with its BVH rebuilt,
 //! refitted, or built over precomputed clusters.
 
+use super::trace::Packets;
 use crate::args::{load, parse_size, Rays};
 use crate::output::{emit, steps_bar};
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use rtmesh::animate::{Animation, Motion};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::cluster::{ClusterFrames, Inside};
+use rtmesh::cluster::{ClusterFrames, ClusterMethod, Inside};
 use rtmesh::progress::Progress;
-use rtmesh::trace::measure::measure;
+use rtmesh::trace::intersect::IntersectorKind;
+use rtmesh::trace::measure::{measure, measure_packets_by_kind};
 use rtmesh::trace::{RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 use serde::Serialize;
@@ -92,9 +94,10 @@ pub struct Args {
     /// and embree-refit (Embree 3 on the same rays; its SAH is not known: NaN).
     #[arg(long, value_enum, default_value = "clusters")]
     build: Build,
-    /// Clustering method: grow (Acc(k)) or meshopt (meshoptimizer's spatial clusters).
+    /// Clustering method: grow or contract (by Acc(k)), or meshopt (meshoptimizer's
+    /// spatial clusters).
     #[arg(long, default_value = "grow")]
-    method: String,
+    method: ClusterMethod,
     /// MaxSize of the clusters.
     #[arg(long, default_value_t = 2.0)]
     max_size: f32,
@@ -106,6 +109,13 @@ pub struct Args {
     /// each frame).
     #[arg(long, value_enum, default_value = "node")]
     inside: InsideArg,
+    /// Ray packets of neighbouring pixels through rtmesh's builds (8x8 primary packets
+    /// over the cluster BVH test the slides' point that packets survive clusters).
+    /// Default none: every build, Embree's too, traces the same single rays; auto
+    /// picks 8x8 for primary rays as `trace` does. Embree builds always trace single
+    /// rays.
+    #[arg(long, value_enum, default_value = "none")]
+    packet: Packets,
     /// Which rays (primary or diffuse).
     #[arg(long, value_enum, default_value = "primary")]
     rays: Rays,
@@ -147,6 +157,8 @@ pub struct Report {
     motion: Motion,
     build: Build,
     ray_kind: &'static str,
+    /// `NxN` packets through rtmesh's builds, or `none`.
+    packet: String,
     triangles: usize,
     /// Clusters (for `--build clusters`).
     clusters: Option<usize>,
@@ -178,13 +190,14 @@ pub fn run(args: Args) -> Result<()> {
     if kind == RayKind::Shadow {
         bail!("--rays shadow is not measured by dynamic: use primary or diffuse");
     }
+    let side = args.packet.side(kind, true);
     let scene = load(&args.mesh)?;
     let (mesh, animation) = Animation::of(&scene, &args.motion)
         .with_context(|| format!("{}: --motion {}", args.mesh, args.motion))?;
-    let settings = super::cluster::settings(&args.method, args.max_count, args.max_size)?;
+    let settings = super::cluster::settings(args.max_count, args.max_size);
     let (clusters, precompute_ms) = if args.build == Build::Clusters {
         let start = std::time::Instant::now();
-        let clusters = super::cluster::clusters_by(&mesh, &args.method, &settings);
+        let clusters = args.method.cluster(&mesh, &settings);
         (Some(clusters), Some(1e3 * start.elapsed().as_secs_f64()))
     } else {
         (None, None)
@@ -249,7 +262,13 @@ pub fn run(args: Args) -> Result<()> {
         };
         let build_ms = 1e3 * start.elapsed().as_secs_f64();
         let work = Workload::generate(kind, &frame_scene, &accel, args.size.0, args.size.1, 1);
-        let run = measure(&accel, &work, args.runs);
+        let run = if side > 1 {
+            let (packed, starts) = work.grouped(side);
+            let intersector = IntersectorKind::MollerPacket;
+            measure_packets_by_kind(intersector, &accel, &packed, &starts, args.runs)
+        } else {
+            measure(&accel, &work, args.runs)
+        };
         frames.push(Frame::of(f, build_ms, &run, accel.stats().sah_cost));
         if args.build == Build::Refit {
             refitted = Some(accel);
@@ -268,6 +287,10 @@ pub fn run(args: Args) -> Result<()> {
         motion: args.motion.clone(),
         build: args.build,
         ray_kind: kind.name(),
+        packet: match side {
+            1 => "none".to_owned(),
+            side => format!("{side}x{side}"),
+        },
         triangles: mesh.triangle_count(),
         clusters: clusters.as_ref().map(|c| c.len()),
         precompute_ms,
@@ -279,12 +302,14 @@ pub fn run(args: Args) -> Result<()> {
 
 fn print(r: &Report) {
     println!(
-        "{}: {} triangles, {} over {} frames, {:?}{}",
+        "{}: {} triangles, {} over {} frames, {:?}, {} rays, packets {}{}",
         r.mesh,
         r.triangles,
         r.motion,
         r.frames.len(),
         r.build,
+        r.ray_kind,
+        r.packet,
         match (r.clusters, r.precompute_ms) {
             (Some(c), Some(ms)) => format!(" ({c} clusters found in {ms:.1} ms)"),
             _ => String::new(),

@@ -43,6 +43,20 @@ pub enum Packets {
     Eight,
 }
 
+impl Packets {
+    /// Rays per packet side for rays of `kind` (auto: 8 for coherent rays through
+    /// triangle leaves, `triangle_leaves`, single rays otherwise).
+    pub fn side(self, kind: RayKind, triangle_leaves: bool) -> usize {
+        match self {
+            Packets::Auto if kind != RayKind::Diffuse && triangle_leaves => 8,
+            Packets::Auto | Packets::None => 1,
+            Packets::Two => 2,
+            Packets::Four => 4,
+            Packets::Eight => 8,
+        }
+    }
+}
+
 /// Trace a ray workload through rtmesh's BVH and report speed and work per ray.
 ///
 /// Builds an 8-wide binned-SAH BVH (two levels for scenes with instances), traces the
@@ -108,13 +122,7 @@ pub struct Report {
 /// Build, trace, report.
 pub fn run(args: Args) -> Result<()> {
     let kind = RayKind::from(args.rays);
-    let side = match args.packet {
-        Packets::Auto if kind != RayKind::Diffuse && args.leaf == Leaf::Tri => 8,
-        Packets::Auto | Packets::None => 1,
-        Packets::Two => 2,
-        Packets::Four => 4,
-        Packets::Eight => 8,
-    };
+    let side = args.packet.side(kind, args.leaf == Leaf::Tri);
     let intersector = args.intersector.map(IntersectorKind::from);
     if args.leaf != Leaf::Tri && (side > 1 || intersector.is_some()) {
         anyhow::bail!("--packet and --intersector work with --leaf tri only");

@@ -4,12 +4,14 @@
 //! vk_animated_clusters calls it. It splits the mesh by SAH over triangle centroids and
 //! needs no connectivity, so its clusters need not be connected.
 //!
-//! Its meshlets are mapped back to input triangle ids ([`TriangleIds`]) and stored as rtmesh's [`Clusters`]; triangles it
-//! does not return (none seen so far) become clusters of one.
+//! Its meshlets are mapped back to input triangle ids ([`TriangleIds`]) and stored as
+//! rtmesh's [`Clusters`], in blocks of four as rtmesh's own clusters are
+//! ([`split_into_blocks`]), so that both are traced alike; triangles it does not return
+//! (none seen so far) become clusters of one.
 //!
 //! Cost: meshoptimizer's, then O(T log T) for the ids.
 
-use super::{ClusterSettings, Clusters};
+use super::{split_into_blocks, ClusterSettings, Clusters};
 use crate::mesh::{TriMesh, TriangleIds};
 
 /// meshoptimizer's spatial clusters of `mesh`, at most `settings.max_triangles`
@@ -48,12 +50,13 @@ pub fn spatial(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
             0.5,
         );
         for meshlet in meshlets.iter() {
-            let group: Vec<u32> = meshlet
+            let mut group: Vec<u32> = meshlet
                 .triangles
                 .chunks_exact(3)
                 .filter_map(|c| ids.take([0, 1, 2].map(|k| meshlet.vertices[c[k] as usize])))
                 .collect();
             if !group.is_empty() {
+                split_into_blocks(mesh, &mut group);
                 out.push(mesh, &group);
             }
         }

@@ -27,8 +27,11 @@
 //! triangles. **Iterative growing** ([`grow`]) starts a cluster at the first triangle
 //! not yet taken (in the order of a Morton curve over the centroids, so that clusters
 //! tile the surface) and adds, one at a time, the neighbour across an edge whose Acc of
-//! the grown set is largest, while it is positive. Iterative contraction (merging the
-//! dual graph's best edge) is not built.
+//! the grown set is largest, while it is positive. **Iterative contraction**
+//! ([`contract`]) starts from one cluster per triangle and contracts the dual graph's
+//! edge of largest Acc(k₁ ∪ k₂) while it is positive. Both then merge the fragments
+//! they leave (clusters of under MaxCount / 2 triangles) into a neighbour the union
+//! fits ([`merge_small`]).
 //!
 //! **Storage** ([`Clusters`]): per cluster its list of global vertex indices (at most
 //! 256) and its triangles as three u8 indices into that list, with the input triangle
@@ -43,7 +46,12 @@
 //! Cost: growing is O(T · F) for F candidates on a cluster's frontier (tens); a frame is
 //! O(T) for the boxes and triangle blocks plus a build over T / |k| boxes.
 
+mod contract;
+mod grow;
 pub mod meshopt;
+
+pub use contract::contract;
+pub use grow::grow;
 
 use crate::bvh::{BuildSettings, Bvh, Child, Primitive};
 use crate::geom::Aabb;
@@ -77,6 +85,60 @@ impl Default for ClusterSettings {
             max_size: 2.0,
             max_normal_angle: 75.0,
         }
+    }
+}
+
+/// How clusters are found: `grow`, `contract` or `meshopt`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ClusterMethod {
+    /// Iterative growing by Acc(k) ([`grow`]).
+    Grow,
+    /// Iterative contraction by Acc(k₁ ∪ k₂) ([`contract`]).
+    Contract,
+    /// meshoptimizer's spatial clusterizer, the baseline ([`meshopt::spatial`]).
+    Meshopt,
+}
+
+impl ClusterMethod {
+    /// Every method.
+    pub const ALL: [ClusterMethod; 3] = [Self::Grow, Self::Contract, Self::Meshopt];
+
+    /// The method's name on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Grow => "grow",
+            Self::Contract => "contract",
+            Self::Meshopt => "meshopt",
+        }
+    }
+
+    /// The clusters of `mesh` by this method.
+    pub fn cluster(self, mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
+        match self {
+            Self::Grow => grow(mesh, settings),
+            Self::Contract => contract(mesh, settings),
+            Self::Meshopt => meshopt::spatial(mesh, settings),
+        }
+    }
+}
+
+impl std::fmt::Display for ClusterMethod {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for ClusterMethod {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|m| m.name() == s)
+            .ok_or_else(|| {
+                format!("unknown clustering method `{s}`: use grow, contract or meshopt")
+            })
     }
 }
 
@@ -234,19 +296,131 @@ pub fn disconnected(mesh: &TriMesh, clusters: &Clusters) -> usize {
         .count()
 }
 
-/// The running figures of a growing cluster.
-#[derive(Clone)]
-struct Growing {
-    triangles: Vec<u32>,
-    vertices: Vec<u32>,
-    vertex_sum: Vec3,
-    normal_sum: Vec3,
-    normals: Vec<Vec3>,
-    area: f32,
+/// The figures Acc(k) needs of a set of triangles: its distinct vertices, their sum,
+/// its unit normals, their area-weighted sum, its area and triangle count.
+#[derive(Clone, Copy)]
+pub(crate) struct Summary<'a> {
+    pub vertices: &'a [u32],
+    pub vertex_sum: Vec3,
+    pub normals: &'a [Vec3],
+    pub normal_sum: Vec3,
+    pub area: f32,
+    pub triangles: usize,
+}
+
+/// A set of triangles with the running figures of its [`Summary`].
+#[derive(Clone, Default)]
+pub(crate) struct Set {
+    pub triangles: Vec<u32>,
+    pub vertices: Vec<u32>,
+    pub vertex_sum: Vec3,
+    pub normals: Vec<Vec3>,
+    pub normal_sum: Vec3,
+    pub area: f32,
+}
+
+impl Set {
+    /// The set of triangle `t` alone.
+    pub fn of(mesh: &TriMesh, t: u32, shape: (Vec3, f32)) -> Self {
+        let mut set = Self::default();
+        set.add(mesh, t, shape);
+        set
+    }
+
+    /// Add triangle `t`, of unit normal and area `shape`.
+    pub fn add(&mut self, mesh: &TriMesh, t: u32, (normal, area): (Vec3, f32)) {
+        self.triangles.push(t);
+        for &v in &mesh.triangles[t as usize] {
+            if !self.vertices.contains(&v) {
+                self.vertices.push(v);
+                self.vertex_sum += mesh.positions[v as usize];
+            }
+        }
+        self.normal_sum += normal * area.max(f32::MIN_POSITIVE);
+        self.area += area;
+        self.normals.push(normal);
+    }
+
+    /// Take in all of `other` (disjoint from this set); `marks` is scratch.
+    pub fn absorb(&mut self, mesh: &TriMesh, other: Set, marks: &mut Marks) {
+        let stamp = marks.stamp(&self.vertices);
+        for &v in &other.vertices {
+            if marks.seen[v as usize] != stamp {
+                self.vertices.push(v);
+                self.vertex_sum += mesh.positions[v as usize];
+            }
+        }
+        self.triangles.extend(other.triangles);
+        self.normals.extend(other.normals);
+        self.normal_sum += other.normal_sum;
+        self.area += other.area;
+    }
+
+    /// Its figures for Acc(k).
+    pub fn summary(&self) -> Summary<'_> {
+        Summary {
+            vertices: &self.vertices,
+            vertex_sum: self.vertex_sum,
+            normals: &self.normals,
+            normal_sum: self.normal_sum,
+            area: self.area,
+            triangles: self.triangles.len(),
+        }
+    }
+}
+
+/// Vertex marks for set unions in O(|V₁| + |V₂|): a vertex is in the marked set when
+/// its mark equals the current stamp.
+pub(crate) struct Marks {
+    seen: Vec<u32>,
+    stamp: u32,
+}
+
+impl Marks {
+    /// Marks for a mesh of `vertex_count` vertices.
+    pub fn new(vertex_count: usize) -> Self {
+        Self {
+            seen: vec![0; vertex_count],
+            stamp: 0,
+        }
+    }
+
+    /// Mark `vertices` under a new stamp, and return it.
+    fn stamp(&mut self, vertices: &[u32]) -> u32 {
+        self.stamp = self.stamp.wrapping_add(1);
+        if self.stamp == 0 {
+            self.seen.fill(0);
+            self.stamp = 1;
+        }
+        for &v in vertices {
+            self.seen[v as usize] = self.stamp;
+        }
+        self.stamp
+    }
+}
+
+/// What Acc(k) is measured against: the settings and the mesh's figures.
+pub(crate) struct AcceptanceScale<'s> {
+    pub settings: &'s ClusterSettings,
+    /// AvgSA, the mesh's mean triangle area.
+    pub average_area: f32,
+    /// cos θmax.
+    pub cos_max: f32,
+}
+
+impl<'s> AcceptanceScale<'s> {
+    /// The scale for `mesh` whose triangles have the unit normals and areas `shape`.
+    pub fn new(settings: &'s ClusterSettings, shape: &[(Vec3, f32)]) -> Self {
+        Self {
+            settings,
+            average_area: shape.iter().map(|s| s.1).sum::<f32>() / shape.len().max(1) as f32,
+            cos_max: settings.max_normal_angle.to_radians().cos(),
+        }
+    }
 }
 
 /// Unit normal and area of triangle `t` (zero for a degenerate one).
-fn normal_and_area(mesh: &TriMesh, t: usize) -> (Vec3, f32) {
+pub(crate) fn normal_and_area(mesh: &TriMesh, t: usize) -> (Vec3, f32) {
     let [a, b, c] = mesh.corners(t);
     let n = (b - a).cross(c - a);
     let length = n.length();
@@ -257,61 +431,56 @@ fn normal_and_area(mesh: &TriMesh, t: usize) -> (Vec3, f32) {
     }
 }
 
-/// Acc(k ∪ t) of the module header, or `None` past a hard limit.
-fn acceptance(
+/// Acc(a ∪ b) of the module header for disjoint sets `a` and `b`, or `None` past a
+/// hard limit (MaxCount triangles, the vertex limit). `marks` is scratch.
+pub(crate) fn acceptance(
     mesh: &TriMesh,
-    k: &Growing,
-    t: usize,
-    (normal, area): (Vec3, f32),
-    settings: &ClusterSettings,
-    average_area: f32,
-    cos_max: f32,
+    a: Summary,
+    b: Summary,
+    scale: &AcceptanceScale,
+    marks: &mut Marks,
 ) -> Option<f32> {
-    let tri = mesh.triangles[t];
-    let new: Vec<u32> = tri
-        .iter()
-        .copied()
-        .filter(|v| !k.vertices.contains(v))
-        .collect();
-    let vertex_count = k.vertices.len() + dedup_len(&new);
-    let triangle_count = k.triangles.len() + 1;
-    if triangle_count > settings.max_triangles || vertex_count > settings.max_vertices {
+    let settings = scale.settings;
+    let triangle_count = a.triangles + b.triangles;
+    if triangle_count > settings.max_triangles {
         return None;
     }
-    let centre = (k.vertex_sum
-        + new
-            .iter()
-            .fold(Vec3::ZERO, |s, &v| s + mesh.positions[v as usize]))
-        / vertex_count as f32;
-    let radius = k
+    let stamp = marks.stamp(a.vertices);
+    let mut vertex_count = a.vertices.len();
+    let mut vertex_sum = a.vertex_sum;
+    for &v in b.vertices {
+        if marks.seen[v as usize] != stamp {
+            vertex_count += 1;
+            vertex_sum += mesh.positions[v as usize];
+        }
+    }
+    if vertex_count > settings.max_vertices {
+        return None;
+    }
+    let centre = vertex_sum / vertex_count as f32;
+    let radius = a
         .vertices
         .iter()
-        .chain(&new)
-        .map(|&v| (mesh.positions[v as usize] - centre).length())
-        .fold(0.0f32, f32::max);
+        .chain(b.vertices)
+        .map(|&v| (mesh.positions[v as usize] - centre).length_squared())
+        .fold(0.0f32, f32::max)
+        .sqrt();
     // The disk of k's own area, or of its expected area where its triangles are
     // smaller than the mesh's average (a sliver strip must not pass as compact).
-    let expected = (k.area + area).max(average_area * triangle_count as f32 * 0.25);
+    let expected = (a.area + b.area).max(scale.average_area * triangle_count as f32 * 0.25);
     let disk = settings.max_size * (expected / std::f32::consts::PI).sqrt();
-    let mean = (k.normal_sum + normal).normalize_or_zero();
-    let cone = k
+    let mean = (a.normal_sum + b.normal_sum).normalize_or_zero();
+    let cone = a
         .normals
         .iter()
-        .chain(std::iter::once(&normal))
+        .chain(b.normals)
         .map(|n| n.dot(mean))
         .fold(1.0f32, f32::min);
     let compact = 1.0 - radius / disk.max(f32::MIN_POSITIVE);
     let budget = 1.0 - vertex_count as f32 / (settings.max_vertices as f32 + 1.0);
-    let acc = compact.min(cone - cos_max).min(budget)
+    let acc = compact.min(cone - scale.cos_max).min(budget)
         - 0.05 * vertex_count as f32 / triangle_count as f32;
     Some(acc)
-}
-
-/// Distinct values of a list of at most three.
-fn dedup_len(values: &[u32]) -> usize {
-    (0..values.len())
-        .filter(|&i| !values[..i].contains(&values[i]))
-        .count()
 }
 
 /// Morton code of a point in `bounds` (10 bits per axis).
@@ -328,20 +497,12 @@ fn morton(p: Vec3, bounds: &Aabb) -> u32 {
     spread(q.x as u32) | (spread(q.y as u32) << 1) | (spread(q.z as u32) << 2)
 }
 
-/// Iterative growing (module header): clusters of `mesh`'s triangles, every triangle in
-/// exactly one, each connected through shared edges (by position) except that a
-/// degenerate or isolated triangle may make a cluster of its own.
-pub fn grow(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
-    assert!(settings.max_triangles >= 1 && settings.max_triangles <= 60);
-    assert!(settings.max_vertices >= 3 && settings.max_vertices <= 256);
-    let n = mesh.triangle_count();
-    let topology = mesh.topology();
-    let adjacency = EdgeAdjacency::build(&topology);
-    let shape: Vec<(Vec3, f32)> = (0..n).map(|t| normal_and_area(mesh, t)).collect();
-    let average_area = shape.iter().map(|s| s.1).sum::<f32>() / n.max(1) as f32;
-    let cos_max = settings.max_normal_angle.to_radians().cos();
+/// `mesh`'s triangle ids in the order of a Morton curve over their centroids (those
+/// with a non-finite centroid last), so that clusters made in this order tile the
+/// surface.
+pub(crate) fn morton_order(mesh: &TriMesh) -> Vec<u32> {
     let bounds = mesh.bounds();
-    let mut order: Vec<(u32, u32)> = (0..n as u32)
+    let mut order: Vec<(u32, u32)> = (0..mesh.triangle_count() as u32)
         .map(|t| {
             let c = mesh.corners(t as usize);
             let centroid = (c[0] + c[1] + c[2]) / 3.0;
@@ -354,82 +515,62 @@ pub fn grow(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
         })
         .collect();
     order.par_sort_unstable();
-    let mut taken = vec![false; n];
+    order.into_iter().map(|(_, t)| t).collect()
+}
+
+/// The checks both methods make of their settings.
+pub(crate) fn check_settings(settings: &ClusterSettings) {
+    assert!(settings.max_triangles >= 1 && settings.max_triangles <= 60);
+    assert!(settings.max_vertices >= 3 && settings.max_vertices <= 256);
+}
+
+/// The clusters of `groups` (each a list of `mesh`'s triangle ids), after
+/// [`merge_small`].
+pub(crate) fn finish(
+    mesh: &TriMesh,
+    adjacency: &EdgeAdjacency,
+    mut groups: Vec<Vec<u32>>,
+    settings: &ClusterSettings,
+) -> Clusters {
+    merge_small(mesh, adjacency, &mut groups, settings);
     let mut out = Clusters {
         triangle_start: vec![0],
         vertex_start: vec![0],
         ..Clusters::default()
     };
-    let mut frontier: Vec<u32> = Vec::new();
-    let mut groups: Vec<Vec<u32>> = Vec::new();
-    for &(_, seed) in &order {
-        if taken[seed as usize] {
-            continue;
-        }
-        let mut k = Growing {
-            triangles: Vec::new(),
-            vertices: Vec::new(),
-            vertex_sum: Vec3::ZERO,
-            normal_sum: Vec3::ZERO,
-            normals: Vec::new(),
-            area: 0.0,
-        };
-        frontier.clear();
-        let mut next = Some(seed);
-        while let Some(t) = next {
-            let tu = t as usize;
-            taken[tu] = true;
-            k.triangles.push(t);
-            for &v in &mesh.triangles[tu] {
-                if !k.vertices.contains(&v) {
-                    k.vertices.push(v);
-                    k.vertex_sum += mesh.positions[v as usize];
-                }
-            }
-            k.normal_sum += shape[tu].0 * shape[tu].1.max(f32::MIN_POSITIVE);
-            k.area += shape[tu].1;
-            k.normals.push(shape[tu].0);
-            for &e in &adjacency.triangle_edges[tu] {
-                if e == NO_EDGE {
-                    continue;
-                }
-                for &u in adjacency.triangles_of(e) {
-                    if !taken[u as usize] && !frontier.contains(&u) {
-                        frontier.push(u);
-                    }
-                }
-            }
-            frontier.retain(|&u| !taken[u as usize]);
-            // The neighbour whose addition keeps Acc highest, if it stays positive.
-            next = frontier
-                .iter()
-                .filter_map(|&u| {
-                    let (normal, area) = shape[u as usize];
-                    if area == 0.0 {
-                        return None;
-                    }
-                    acceptance(
-                        mesh,
-                        &k,
-                        u as usize,
-                        (normal, area),
-                        settings,
-                        average_area,
-                        cos_max,
-                    )
-                    .filter(|&a| a > 0.0)
-                    .map(|a| (a, u))
-                })
-                .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)))
-                .map(|(_, u)| u);
-        }
-        groups.push(k.triangles);
-    }
-    merge_small(mesh, &adjacency, &mut groups, settings);
-    for triangles in &groups {
+    for triangles in &mut groups {
+        split_into_blocks(mesh, triangles);
         out.push(mesh, triangles);
     }
     out
+}
+
+/// Order a cluster's triangles so that each run of four (one traced block) is
+/// compact: split the centroids at the median of their widest axis, recursively, down
+/// to four. The tracer's node over a cluster's blocks then boxes nearby triangles
+/// together, as a BVH built inside the cluster would.
+pub(crate) fn split_into_blocks(mesh: &TriMesh, triangles: &mut [u32]) {
+    if triangles.len() <= 4 {
+        return;
+    }
+    let centroid = |t: u32| {
+        let [a, b, c] = mesh.corners(t as usize);
+        a + b + c
+    };
+    let bounds = triangles
+        .iter()
+        .fold(Aabb::EMPTY, |b, &t| b.grown_by_point(centroid(t)));
+    let axis = bounds.extent().max_position();
+    // Halves of whole blocks, so that no block straddles the split.
+    let half = triangles.len().div_ceil(8) * 4;
+    triangles.select_nth_unstable_by(half, |&a, &b| {
+        centroid(a)[axis]
+            .total_cmp(&centroid(b)[axis])
+            .then(a.cmp(&b))
+    });
+    let (low, high) = triangles.split_at_mut(half);
+    split_into_blocks(mesh, low);
+    split_into_blocks(mesh, high);
 }
 
 /// Growing leaves fragments between the clusters it grew first. Merge each cluster of

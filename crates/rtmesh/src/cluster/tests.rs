@@ -3,6 +3,10 @@ use crate::animate::{Animation, Procedural};
 use crate::trace::run::trace_closest;
 use crate::trace::{NoCounters, RayKind, Workload};
 use crate::Scene;
+use proptest::prelude::*;
+
+/// The two methods by Acc(k).
+const BY_ACCEPTANCE: [ClusterMethod; 2] = [ClusterMethod::Grow, ClusterMethod::Contract];
 
 /// Every triangle in exactly one cluster, with its corners and winding; clusters within
 /// their limits and connected through shared edges.
@@ -51,12 +55,48 @@ fn assert_valid(mesh: &TriMesh, clusters: &Clusters, settings: &ClusterSettings)
 fn grid_clusters_are_valid_compact_and_small() {
     let mesh = crate::scenes::quad_grid(40);
     let settings = ClusterSettings::default();
-    let clusters = grow(&mesh, &settings);
+    for method in BY_ACCEPTANCE {
+        let clusters = method.cluster(&mesh, &settings);
+        assert_valid(&mesh, &clusters, &settings);
+        let report = ClusterReport::of(&clusters, 0.0);
+        assert!(report.mean_triangles > 20.0, "{method}: {report:?}");
+        assert!(
+            report.mean_vertices_per_triangle < 0.85,
+            "{method}: {report:?}"
+        );
+        assert!(report.bytes < report.indexed_bytes + 4 * report.triangles);
+    }
+}
+
+/// Contraction on a hand-built strip of four triangles along a row of quads, with a
+/// MaxCount of 2: the two quads become the two clusters, each quad's halves together
+/// (the pair of largest Acc: the most compact, flat and vertex-sharing union).
+#[test]
+fn contraction_pairs_each_quads_halves() {
+    let positions = (0..6)
+        .map(|i| Vec3::new((i / 2) as f32, (i % 2) as f32, 0.0))
+        .collect();
+    // Quads (0 1 3 2) and (2 3 5 4), each cut along its diagonal.
+    let triangles = vec![[0, 2, 1], [1, 2, 3], [2, 4, 3], [3, 4, 5]];
+    let mesh = TriMesh::new(positions, triangles);
+    let settings = ClusterSettings {
+        max_triangles: 2,
+        ..ClusterSettings::default()
+    };
+    let clusters = contract(&mesh, &settings);
+    let mut sets: Vec<Vec<u32>> = (0..clusters.len())
+        .map(|c| {
+            let mut t: Vec<u32> = clusters
+                .triangles_of(c)
+                .map(|i| clusters.input_triangle[i])
+                .collect();
+            t.sort_unstable();
+            t
+        })
+        .collect();
+    sets.sort();
+    assert_eq!(sets, vec![vec![0, 1], vec![2, 3]]);
     assert_valid(&mesh, &clusters, &settings);
-    let report = ClusterReport::of(&clusters, 0.0);
-    assert!(report.mean_triangles > 20.0, "{report:?}");
-    assert!(report.mean_vertices_per_triangle < 0.85, "{report:?}");
-    assert!(report.bytes < report.indexed_bytes + 4 * report.triangles);
 }
 
 #[test]
@@ -80,8 +120,9 @@ fn disconnected_and_non_manifold_meshes_cluster_validly() {
         max_triangles: 8,
         ..ClusterSettings::default()
     };
-    let clusters = grow(&mesh, &settings);
-    assert_valid(&mesh, &clusters, &settings);
+    for method in BY_ACCEPTANCE {
+        assert_valid(&mesh, &method.cluster(&mesh, &settings), &settings);
+    }
 }
 
 #[test]
@@ -92,7 +133,9 @@ fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
             max_triangles,
             ..ClusterSettings::default()
         };
-        check_frames(&mesh, &grow(&mesh, &settings));
+        for method in BY_ACCEPTANCE {
+            check_frames(&mesh, &method.cluster(&mesh, &settings));
+        }
     }
     check_frames(&mesh, &meshopt::spatial(&mesh, &ClusterSettings::default()));
 }
@@ -146,8 +189,10 @@ fn meshopt_clusters_hold_every_triangle_once_within_limits() {
         }
     }
     assert!(seen.iter().all(|&s| s));
-    // grow's clusters are connected; meshoptimizer's need not be.
-    assert_eq!(disconnected(&mesh, &grow(&mesh, &settings)), 0);
+    // Clusters by Acc(k) are connected; meshoptimizer's need not be.
+    for method in BY_ACCEPTANCE {
+        assert_eq!(disconnected(&mesh, &method.cluster(&mesh, &settings)), 0);
+    }
     let two_apart = TriMesh::new(
         vec![
             glam::Vec3::ZERO,
@@ -175,4 +220,42 @@ fn meshopt_clusters_hold_every_triangle_once_within_limits() {
         0,
         "[0, 1, 2] and [0, 2, 5] share (0, 2)"
     );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    /// Random, non-manifold, disconnected meshes with repeated vertices: every triangle
+    /// in one cluster with its winding, clusters connected and within their limits, by
+    /// both methods; meshoptimizer's hold every triangle once.
+    #[test]
+    fn random_meshes_cluster_validly(mesh in crate::scenes::arbitrary_mesh(), max_triangles in 1usize..=60) {
+        let settings = ClusterSettings { max_triangles, ..ClusterSettings::default() };
+        for method in BY_ACCEPTANCE {
+            assert_valid(&mesh, &method.cluster(&mesh, &settings), &settings);
+        }
+        let theirs = meshopt::spatial(&mesh, &settings);
+        let mut ids = theirs.input_triangle.clone();
+        ids.sort_unstable();
+        prop_assert_eq!(ids, (0..mesh.triangle_count() as u32).collect::<Vec<_>>());
+    }
+
+    /// A grid with holes punched in it, at a small vertex limit.
+    #[test]
+    fn grids_with_holes_cluster_validly(holes in proptest::collection::vec(0usize..800, 0..200), max_vertices in 3usize..40) {
+        let mut mesh = crate::scenes::quad_grid(20);
+        let mut keep = vec![true; mesh.triangle_count()];
+        let n = keep.len();
+        for h in holes {
+            keep[h % n] = false;
+        }
+        let mut k = keep.iter();
+        mesh.triangles.retain(|_| *k.next().unwrap());
+        let settings = ClusterSettings { max_vertices, ..ClusterSettings::default() };
+        for method in BY_ACCEPTANCE {
+            let clusters = method.cluster(&mesh, &settings);
+            assert_valid(&mesh, &clusters, &settings);
+            prop_assert_eq!(disconnected(&mesh, &clusters), 0);
+        }
+    }
 }

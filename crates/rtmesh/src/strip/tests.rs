@@ -112,27 +112,13 @@ fn inconsistent_winding_and_nonmanifold_edges_break_strips() {
     assert_eq!(strips.len(), 4);
 }
 
-fn arbitrary_mesh() -> impl Strategy<Value = TriMesh> {
-    (4usize..24).prop_flat_map(|v| {
-        (
-            proptest::collection::vec(
-                (-4.0f32..4.0, -4.0f32..4.0, -4.0f32..4.0)
-                    .prop_map(|(x, y, z)| glam::Vec3::new(x, y, z)),
-                v,
-            ),
-            proptest::collection::vec([0..v as u32, 0..v as u32, 0..v as u32], 1..60),
-        )
-            .prop_map(|(positions, triangles)| TriMesh::new(positions, triangles))
-    })
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
     /// Random, non-manifold, disconnected meshes with repeated vertices: every triangle
     /// once, with its winding, for Strip-RT and for meshoptimizer's strips.
     #[test]
-    fn random_meshes_strip_losslessly(mesh in arbitrary_mesh(), max_length in 1usize..40) {
+    fn random_meshes_strip_losslessly(mesh in scenes::arbitrary_mesh(), max_length in 1usize..40) {
         let strips = stripify(&mesh, &StripSettings { max_length });
         assert_valid(&mesh, &strips, max_length);
         let theirs = meshopt::stripify(&mesh, max_length);

@@ -1,6 +1,7 @@
 //! `rtmesh bench`: tables that compare methods or tracers on many meshes, one file per
 //! table; the rows come from the lab crate.
 
+mod clusters;
 mod intersect;
 mod packets;
 mod pairing;
@@ -24,6 +25,7 @@ enum Table {
     Packets(packets::Args),
     Intersect(intersect::Args),
     Strips(strips::Args),
+    Clusters(clusters::Args),
 }
 
 /// Measure and print the table asked for.
@@ -34,5 +36,6 @@ pub fn run(args: Args) -> Result<()> {
         Table::Packets(args) => packets::run(args),
         Table::Intersect(args) => intersect::run(args),
         Table::Strips(args) => strips::run(args),
+        Table::Clusters(args) => clusters::run(args),
     }
 }
