@@ -255,6 +255,21 @@ pub(crate) fn arbitrary_mesh() -> impl proptest::strategy::Strategy<Value = TriM
     })
 }
 
+/// A 20 × 20 quad grid with the triangles `holes` (modulo its 800) taken out, for
+/// property tests.
+#[cfg(test)]
+pub(crate) fn grid_with_holes(holes: &[usize]) -> TriMesh {
+    let mut mesh = quad_grid(20);
+    let mut keep = vec![true; mesh.triangle_count()];
+    let n = keep.len();
+    for h in holes {
+        keep[h % n] = false;
+    }
+    let mut k = keep.iter();
+    mesh.triangles.retain(|_| *k.next().unwrap());
+    mesh
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

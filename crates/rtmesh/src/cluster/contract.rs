@@ -15,12 +15,8 @@
 //! neighbours of each of the ≤ T contractions, each weighing O(|k₁| + |k₂|); memory is
 //! one set per live cluster, against growing's one at a time.
 
-use super::{
-    acceptance, check_settings, finish, morton_order, normal_and_area, AcceptanceScale,
-    ClusterSettings, Clusters, Marks, Set,
-};
-use crate::mesh::{EdgeAdjacency, TriMesh, NO_EDGE};
-use glam::Vec3;
+use super::{acceptance, finish, morton_order, prepare, ClusterSettings, Clusters, Marks, Set};
+use crate::mesh::{TriMesh, NO_EDGE};
 use std::collections::BinaryHeap;
 
 /// A dual edge in the heap, ordered by Acc, then lower cluster ids first.
@@ -55,17 +51,11 @@ struct Live {
     neighbours: Vec<u32>,
 }
 
-/// Iterative contraction (module header): clusters of `mesh`'s triangles, every
-/// triangle in exactly one, each connected through shared edges (by position) except
-/// that a degenerate or isolated triangle may make a cluster of its own.
+/// Iterative contraction (module header): clusters of `mesh`'s triangles with the
+/// guarantees of [`super::grow`]'s (every triangle in exactly one, connected).
 pub fn contract(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
-    check_settings(settings);
     let n = mesh.triangle_count();
-    let topology = mesh.topology();
-    let adjacency = EdgeAdjacency::build(&topology);
-    let shape: Vec<(Vec3, f32)> = (0..n).map(|t| normal_and_area(mesh, t)).collect();
-    let scale = AcceptanceScale::new(settings, &shape);
-    let mut marks = Marks::new(mesh.positions.len());
+    let (adjacency, shape, scale, mut marks) = prepare(mesh, settings);
     // A degenerate triangle has no normal to judge: it takes part in no contraction
     // and is merged afterwards with the fragments.
     let mergeable = |t: usize| shape[t].1 > 0.0;

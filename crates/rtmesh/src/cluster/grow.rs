@@ -8,11 +8,8 @@
 //! Cost: O(T · F · |k|) for F candidates on a cluster's frontier (tens) and |k| the
 //! cluster's size (Acc(k ∪ t) walks k's vertices and normals).
 
-use super::{
-    acceptance, check_settings, finish, morton_order, normal_and_area, AcceptanceScale,
-    ClusterSettings, Clusters, Marks, Set, Summary,
-};
-use crate::mesh::{EdgeAdjacency, TriMesh, NO_EDGE};
+use super::{acceptance, finish, morton_order, prepare, ClusterSettings, Clusters, Set, Summary};
+use crate::mesh::{TriMesh, NO_EDGE};
 use glam::Vec3;
 
 /// Triangle `t` as a one-triangle [`Summary`], its distinct vertices kept in `distinct`.
@@ -46,13 +43,8 @@ fn one_triangle<'a>(
 /// exactly one, each connected through shared edges (by position) except that a
 /// degenerate or isolated triangle may make a cluster of its own.
 pub fn grow(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
-    check_settings(settings);
     let n = mesh.triangle_count();
-    let topology = mesh.topology();
-    let adjacency = EdgeAdjacency::build(&topology);
-    let shape: Vec<(Vec3, f32)> = (0..n).map(|t| normal_and_area(mesh, t)).collect();
-    let scale = AcceptanceScale::new(settings, &shape);
-    let mut marks = Marks::new(mesh.positions.len());
+    let (adjacency, shape, scale, mut marks) = prepare(mesh, settings);
     let mut taken = vec![false; n];
     let mut frontier: Vec<u32> = Vec::new();
     let mut groups: Vec<Vec<u32>> = Vec::new();

@@ -420,7 +420,7 @@ impl<'s> AcceptanceScale<'s> {
 }
 
 /// Unit normal and area of triangle `t` (zero for a degenerate one).
-pub(crate) fn normal_and_area(mesh: &TriMesh, t: usize) -> (Vec3, f32) {
+fn normal_and_area(mesh: &TriMesh, t: usize) -> (Vec3, f32) {
     let [a, b, c] = mesh.corners(t);
     let n = (b - a).cross(c - a);
     let length = n.length();
@@ -518,10 +518,21 @@ pub(crate) fn morton_order(mesh: &TriMesh) -> Vec<u32> {
     order.into_iter().map(|(_, t)| t).collect()
 }
 
-/// The checks both methods make of their settings.
-pub(crate) fn check_settings(settings: &ClusterSettings) {
+/// What both methods by Acc(k) start from, `settings` checked: the mesh's edge
+/// adjacency (by position), each triangle's unit normal and area, the scale of Acc and
+/// the vertex marks.
+pub(crate) fn prepare<'s>(
+    mesh: &TriMesh,
+    settings: &'s ClusterSettings,
+) -> (EdgeAdjacency, Vec<(Vec3, f32)>, AcceptanceScale<'s>, Marks) {
     assert!(settings.max_triangles >= 1 && settings.max_triangles <= 60);
     assert!(settings.max_vertices >= 3 && settings.max_vertices <= 256);
+    let adjacency = EdgeAdjacency::build(&mesh.topology());
+    let shape: Vec<(Vec3, f32)> = (0..mesh.triangle_count())
+        .map(|t| normal_and_area(mesh, t))
+        .collect();
+    let scale = AcceptanceScale::new(settings, &shape);
+    (adjacency, shape, scale, Marks::new(mesh.positions.len()))
 }
 
 /// The clusters of `groups` (each a list of `mesh`'s triangle ids), after

@@ -243,14 +243,7 @@ proptest! {
     /// A grid with holes punched in it, at a small vertex limit.
     #[test]
     fn grids_with_holes_cluster_validly(holes in proptest::collection::vec(0usize..800, 0..200), max_vertices in 3usize..40) {
-        let mut mesh = crate::scenes::quad_grid(20);
-        let mut keep = vec![true; mesh.triangle_count()];
-        let n = keep.len();
-        for h in holes {
-            keep[h % n] = false;
-        }
-        let mut k = keep.iter();
-        mesh.triangles.retain(|_| *k.next().unwrap());
+        let mesh = crate::scenes::grid_with_holes(&holes);
         let settings = ClusterSettings { max_vertices, ..ClusterSettings::default() };
         for method in BY_ACCEPTANCE {
             let clusters = method.cluster(&mesh, &settings);
