@@ -56,9 +56,13 @@ pub fn run(args: Args) -> Result<()> {
         phases: args.phases.clone(),
     };
     if !args.json {
-        let phases: Vec<String> = args.phases.iter().map(|p| format!("SAH@{p}")).collect();
+        let phases: Vec<String> = args
+            .phases
+            .iter()
+            .map(|p| format!("{:>7}", format!("SAH@{p}")))
+            .collect();
         println!(
-            "{:<22} {:<18} {:>4} {:>8} {:>6} {:>6} {:>5} {:>7}  {}",
+            "{:<22} {:<22} {:>4} {:>8} {:>6} {:>6} {:>5} {:>7}  {}",
             "mesh",
             "method",
             "max",
@@ -85,7 +89,7 @@ pub fn run(args: Args) -> Result<()> {
                     .map(|s| format!("{s:>7.2}"))
                     .collect();
                 println!(
-                    "{:<22} {:<18} {:>54}  {}",
+                    "{:<22} {:<22} {:>41}  {}",
                     file_name(name),
                     "rebuild",
                     "",
@@ -102,7 +106,7 @@ pub fn run(args: Args) -> Result<()> {
                     };
                     let sah: Vec<String> = row.sah.iter().map(|s| format!("{s:>7.2}")).collect();
                     println!(
-                        "{:<22} {:<18} {:>4} {:>8} {:>6.1} {:>6.3} {:>5} {:>7.3}  {}",
+                        "{:<22} {:<22} {:>4} {:>8} {:>6.1} {:>6.3} {:>5} {:>7.3}  {}",
                         row.mesh,
                         method,
                         row.max_triangles,
