@@ -162,7 +162,7 @@ fn traced_strips_hit_what_triangles_hit() {
     for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
         let work = Workload::generate(kind, &scene, &triangles, 64, 64, 1);
         let reference = trace_closest::<NoCounters>(&triangles, &work.rays).0;
-        for inside in [Inside::Flat, Inside::Implicit] {
+        for inside in [Inside::Flat, Inside::Implicit, Inside::Quantized] {
             let accel =
                 StripAccel::build(&mesh.positions, &strips, 2, inside).expect("short strips");
             let hits = trace_closest::<NoCounters>(&accel, &work.rays).0;

@@ -12,10 +12,12 @@
 //! - [`Inside::Implicit`]: a range longer than 8 triangles is split at its middle
 //!   triangle, the two halves' boxes are computed from the decoded corners on the fly
 //!   and tested, nearest first. Nothing is stored for it.
-//!
-//! Stored boxes inside the strip (in full, or quantized to 8-bit planes as Embree's
-//! QBVH and CWBVH store them) would spend bytes per triangle to save the on-the-fly
-//! boxes; neither is built (docs/measurements/strips.md has the trade-off measured).
+//! - [`Inside::Quantized`]: each run of four triangles (one traced block) has a stored
+//!   box, its six planes quantized to 8 bits within the strip's f32 box, as Embree's
+//!   QBVH and CWBVH store child planes. A leaf visit tests those boxes first, then walks
+//!   the strip's index stream and loads positions only for the blocks a box let
+//!   through. It costs 24 + 4 bytes a strip and 6 a block, and saves the decode of
+//!   every missed block (docs/measurements/strips.md has the trade-off measured).
 //!
 //! Hits carry the input triangle id; their `(u, v)` are relative to the strip's
 //! rotation of the corners (it starts at another corner when the strip entered the
@@ -44,6 +46,96 @@ pub enum Inside {
     Flat,
     /// A balanced binary split at the middle triangle, boxes computed on the fly.
     Implicit,
+    /// A stored 8-bit box per block of four triangles, within the strip's f32 box.
+    Quantized,
+}
+
+/// The stored boxes of [`Inside::Quantized`].
+struct BlockBoxes {
+    /// Each strip's box.
+    strip_box: Vec<Aabb>,
+    /// Strip `s`'s blocks are `planes[block_start[s]..block_start[s + 1]]`.
+    block_start: Vec<u32>,
+    /// min x, y, z, max x, y, z of each block, in 255ths of its strip box's extent.
+    planes: Vec<[u8; 6]>,
+}
+
+impl BlockBoxes {
+    /// The boxes of every block of `strips` over `positions`, each quantized outward.
+    fn build(strips: &Strips, positions: &[Vec3]) -> Self {
+        let mut out = Self {
+            strip_box: Vec::with_capacity(strips.len()),
+            block_start: vec![0],
+            planes: Vec::new(),
+        };
+        let mut blocks: Vec<Aabb> = Vec::with_capacity(MAX_TRACED_LENGTH / 4);
+        for s in 0..strips.len() {
+            let first = strips.triangles_of(s).start;
+            blocks.clear();
+            strips.for_each_triangle(s, |k, t| {
+                let block = (k - first) / 4;
+                if block == blocks.len() {
+                    blocks.push(Aabb::EMPTY);
+                }
+                for v in t {
+                    blocks[block] = blocks[block].grown_by_point(positions[v as usize]);
+                }
+            });
+            let strip_box = blocks.iter().fold(Aabb::EMPTY, |a, &b| a.union(b));
+            for b in &blocks {
+                out.planes.push(quantize(&strip_box, b));
+            }
+            out.strip_box.push(strip_box);
+            out.block_start.push(out.planes.len() as u32);
+        }
+        out
+    }
+
+    /// Bytes stored.
+    fn bytes(&self) -> usize {
+        24 * self.strip_box.len() + 4 * self.block_start.len() + 6 * self.planes.len()
+    }
+}
+
+/// The box of 8-bit `planes` within `strip_box`: mins counted up from its min, maxes
+/// down from its max, so that 0 and 255 give its planes exactly.
+#[inline(always)]
+fn dequantize(strip_box: &Aabb, planes: [u8; 6]) -> Aabb {
+    let step = strip_box.extent() / 255.0;
+    let q = planes.map(f32::from);
+    Aabb {
+        min: strip_box.min + Vec3::new(q[0], q[1], q[2]) * step,
+        max: strip_box.max - Vec3::new(255.0 - q[3], 255.0 - q[4], 255.0 - q[5]) * step,
+    }
+}
+
+/// `b`'s planes within `strip_box`, rounded outward so that the dequantized box holds
+/// `b` (checked against [`dequantize`] itself, so float rounding cannot shrink it).
+fn quantize(strip_box: &Aabb, b: &Aabb) -> [u8; 6] {
+    let extent = strip_box.extent();
+    let mut q = [0u8; 6];
+    for axis in 0..3 {
+        let scale = if extent[axis] > 0.0 {
+            255.0 / extent[axis]
+        } else {
+            0.0
+        };
+        q[axis] = ((b.min[axis] - strip_box.min[axis]) * scale)
+            .floor()
+            .clamp(0.0, 255.0) as u8;
+        q[axis + 3] = ((b.max[axis] - strip_box.min[axis]) * scale)
+            .ceil()
+            .clamp(0.0, 255.0) as u8;
+    }
+    for axis in 0..3 {
+        while q[axis] > 0 && dequantize(strip_box, q).min[axis] > b.min[axis] {
+            q[axis] -= 1;
+        }
+        while q[axis + 3] < 255 && dequantize(strip_box, q).max[axis] < b.max[axis] {
+            q[axis + 3] += 1;
+        }
+    }
+    q
 }
 
 /// Room for one decoded strip.
@@ -87,6 +179,8 @@ pub struct StripAccel {
     strips: Strips,
     positions: Vec<Vec3>,
     inside: Inside,
+    /// The stored boxes, for [`Inside::Quantized`].
+    blocks: Option<BlockBoxes>,
 }
 
 /// Why strips cannot be traced.
@@ -158,12 +252,14 @@ impl StripAccel {
             }
             *v = *slot;
         }
+        let blocks = (inside == Inside::Quantized).then(|| BlockBoxes::build(&strips, &reordered));
         bvh.build_seconds = start.elapsed().as_secs_f64();
         Ok(Self {
             bvh,
             strips,
             positions: reordered,
             inside,
+            blocks,
         })
     }
 
@@ -174,7 +270,9 @@ impl StripAccel {
 
     /// Bytes of the hierarchy: the top BVH's nodes and leaf ranges.
     pub fn hierarchy_bytes(&self) -> usize {
-        self.bvh.stats().node_bytes + std::mem::size_of_val(self.bvh.primitives.as_slice())
+        self.bvh.stats().node_bytes
+            + std::mem::size_of_val(self.bvh.primitives.as_slice())
+            + self.blocks.as_ref().map_or(0, BlockBoxes::bytes)
     }
 
     /// Bytes of the strips' topology ([`Strips::bytes`]).
@@ -211,6 +309,81 @@ impl StripAccel {
         unsafe { std::slice::from_raw_parts(buffer.0.as_ptr().cast::<Triangle>(), n) }
     }
 
+    /// Test strip `s`'s triangles (decoded into `buffer` as needed); `f` tests one
+    /// block and returns whether to stop.
+    #[inline(always)]
+    fn visit_strip<C: Counters>(
+        &self,
+        s: usize,
+        buffer: &mut Decoded,
+        query: &RayQuery,
+        t_max: &mut f32,
+        counters: &mut C,
+        f: impl FnMut(&Triangle4, &mut f32) -> bool,
+    ) -> bool {
+        match &self.blocks {
+            Some(blocks) => self.visit_quantized(s, blocks, buffer, query, t_max, counters, f),
+            None => {
+                let triangles = self.decode(s, buffer);
+                self.visit(triangles, query, t_max, counters, f)
+            }
+        }
+    }
+
+    /// [`Inside::Quantized`]: the blocks whose stored boxes the ray enters, decoded and
+    /// tested in strip order.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn visit_quantized<C: Counters>(
+        &self,
+        s: usize,
+        blocks: &BlockBoxes,
+        buffer: &mut Decoded,
+        query: &RayQuery,
+        t_max: &mut f32,
+        counters: &mut C,
+        mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
+    ) -> bool {
+        let planes =
+            &blocks.planes[blocks.block_start[s] as usize..blocks.block_start[s + 1] as usize];
+        let strip_box = &blocks.strip_box[s];
+        counters.box_tests(planes.len() as u32);
+        let mut entered = 0u16;
+        for (i, &q) in planes.iter().enumerate() {
+            if box_entry(&dequantize(strip_box, q), query, *t_max).is_some() {
+                entered |= 1 << i;
+            }
+        }
+        if entered == 0 {
+            return false;
+        }
+        let range = self.strips.triangles_of(s);
+        let first = range.start;
+        self.strips.for_each_triangle(s, |k, t| {
+            if entered & (1 << ((k - first) / 4)) != 0 {
+                buffer.0[k - first].write(Triangle::new(
+                    t.map(|v| self.positions[v as usize]),
+                    self.strips.triangle_source[k],
+                ));
+            }
+        });
+        let n = range.len();
+        for i in (0..planes.len()).filter(|&i| entered & (1 << i) != 0) {
+            let (lo, hi) = (4 * i, (4 * i + 4).min(n));
+            // SAFETY: every triangle of an entered block was written above, and
+            // hi ≤ n ≤ MAX_TRACED_LENGTH (checked in `build`).
+            let chunk = unsafe {
+                std::slice::from_raw_parts(buffer.0.as_ptr().add(lo).cast::<Triangle>(), hi - lo)
+            };
+            let block = Triangle4::new(chunk);
+            block.count_tests(counters);
+            if f(&block, t_max) {
+                return true;
+            }
+        }
+        false
+    }
+
     /// Test triangles `range` of a decoded strip; `f` tests one block and returns
     /// whether to stop.
     #[inline(always)]
@@ -227,6 +400,7 @@ impl StripAccel {
         let split_above = match self.inside {
             Inside::Flat => usize::MAX,
             Inside::Implicit => 8,
+            Inside::Quantized => unreachable!("visited through its stored boxes"),
         };
         let mut stack = [(0usize, 0usize, 0.0f32); 16];
         let mut len = 1;
@@ -285,8 +459,8 @@ impl StripAccel {
             |leaf, t_max, counters| {
                 let before = found;
                 for s in leaf[0].first..leaf[0].first + leaf[0].count {
-                    let triangles = self.decode(s as usize, &mut buffer);
-                    self.visit(triangles, &query, t_max, counters, |block, t_max| {
+                    let (b, q) = (&mut buffer, &query);
+                    self.visit_strip(s as usize, b, q, t_max, counters, |block, t_max| {
                         if block.intersect_into(&query, &mut hit) {
                             *t_max = hit.t;
                             found = true;
@@ -318,8 +492,8 @@ impl StripAccel {
             |leaf, t_max, counters| {
                 let mut t = t_max;
                 (leaf[0].first..leaf[0].first + leaf[0].count).any(|s| {
-                    let triangles = self.decode(s as usize, &mut buffer);
-                    self.visit(triangles, &query, &mut t, counters, |block, t_max| {
+                    let (b, q) = (&mut buffer, &query);
+                    self.visit_strip(s as usize, b, q, &mut t, counters, |block, t_max| {
                         block.occludes(&query, *t_max)
                     })
                 })
@@ -395,5 +569,34 @@ impl Tracer for StripAccel {
             ray,
             counters,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// A quantized block box holds the block, and stays within its strip's box.
+        #[test]
+        fn quantized_boxes_hold_their_blocks(
+            corners in proptest::collection::vec((-1e3f32..1e3, -1e3f32..1e3, -1e3f32..1e3), 2..8),
+            flat_axis in 0usize..4,
+        ) {
+            let mut points: Vec<Vec3> = corners.iter().map(|&(x, y, z)| Vec3::new(x, y, z)).collect();
+            if flat_axis < 3 {
+                for p in &mut points {
+                    p[flat_axis] = 1.5;
+                }
+            }
+            let strip_box = Aabb::from_points(&points);
+            let block = Aabb::from_points(&points[1..]);
+            let back = dequantize(&strip_box, quantize(&strip_box, &block));
+            for axis in 0..3 {
+                prop_assert!(back.min[axis] <= block.min[axis] && back.max[axis] >= block.max[axis]);
+                prop_assert!(back.min[axis] >= strip_box.min[axis]);
+            }
+        }
     }
 }

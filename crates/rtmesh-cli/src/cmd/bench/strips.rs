@@ -26,8 +26,8 @@ pub struct Args {
     /// Strips per BVH leaf (1..=15).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
     strips_per_leaf: u32,
-    /// flat (test every triangle of a strip) or implicit (split at the middle, boxes
-    /// computed on the fly).
+    /// flat (test every triangle of a strip), implicit (split at the middle, boxes
+    /// computed on the fly) or quantized (a stored 8-bit box per four triangles).
     #[arg(long, default_value = "implicit")]
     inside: String,
     /// Workloads, comma separated.
@@ -57,7 +57,8 @@ pub fn run(args: Args) -> Result<()> {
     let inside = match args.inside.as_str() {
         "flat" => Inside::Flat,
         "implicit" => Inside::Implicit,
-        other => anyhow::bail!("--inside is flat or implicit, not `{other}`"),
+        "quantized" => Inside::Quantized,
+        other => anyhow::bail!("--inside is flat, implicit or quantized, not `{other}`"),
     };
     let table = StripTable {
         max_length: args.max_length as usize,
