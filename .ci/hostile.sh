@@ -20,6 +20,10 @@ subcommands=(
   "convert $work/out.glb"
   "optimize -o $work/optimized.glb --size 64x64 --runs 1"
   "strip -o $work/strips.ply"
+  "strip --method meshopt -o $work/meshopt-strips.ply"
+  "cluster --method contract"
+  "cluster --method meshopt"
+  "dynamic --motion explode --frames 2 --size 16x16 --runs 1 --method contract"
 )
 checked=0 failed=0
 for file in *.obj *.ply *.gltf *.glb *.stl; do

@@ -15,8 +15,11 @@
 //! neighbours of each of the ≤ T contractions, each weighing O(|k₁| + |k₂|); memory is
 //! one set per live cluster, against growing's one at a time.
 
-use super::{acceptance, finish, morton_order, prepare, ClusterSettings, Clusters, Marks, Set};
-use crate::mesh::{TriMesh, NO_EDGE};
+use super::{
+    acceptance, edge_neighbours, finish, morton_order, prepare, ClusterSettings, Clusters, Marks,
+    Set,
+};
+use crate::mesh::TriMesh;
 use std::collections::BinaryHeap;
 
 /// A dual edge in the heap, ordered by Acc, then lower cluster ids first.
@@ -61,10 +64,7 @@ pub fn contract(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
     let mergeable = |t: usize| shape[t].1 > 0.0;
     let mut live: Vec<Option<Live>> = (0..n)
         .map(|t| {
-            let mut neighbours: Vec<u32> = adjacency.triangle_edges[t]
-                .iter()
-                .filter(|&&e| e != NO_EDGE)
-                .flat_map(|&e| adjacency.triangles_of(e).iter().copied())
+            let mut neighbours: Vec<u32> = edge_neighbours(&adjacency, t)
                 .filter(|&u| u as usize != t && mergeable(u as usize))
                 .collect();
             neighbours.sort_unstable();

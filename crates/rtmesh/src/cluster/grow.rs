@@ -8,8 +8,11 @@
 //! Cost: O(T · F · |k|) for F candidates on a cluster's frontier (tens) and |k| the
 //! cluster's size (Acc(k ∪ t) walks k's vertices and normals).
 
-use super::{acceptance, finish, morton_order, prepare, ClusterSettings, Clusters, Set, Summary};
-use crate::mesh::{TriMesh, NO_EDGE};
+use super::{
+    acceptance, edge_neighbours, finish, morton_order, prepare, ClusterSettings, Clusters, Set,
+    Summary,
+};
+use crate::mesh::TriMesh;
 use glam::Vec3;
 
 /// Triangle `t` as a one-triangle [`Summary`], its distinct vertices kept in `distinct`.
@@ -59,14 +62,9 @@ pub fn grow(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
             let tu = t as usize;
             taken[tu] = true;
             k.add(mesh, t, shape[tu]);
-            for &e in &adjacency.triangle_edges[tu] {
-                if e == NO_EDGE {
-                    continue;
-                }
-                for &u in adjacency.triangles_of(e) {
-                    if !taken[u as usize] && !frontier.contains(&u) {
-                        frontier.push(u);
-                    }
+            for u in edge_neighbours(&adjacency, tu) {
+                if !taken[u as usize] && !frontier.contains(&u) {
+                    frontier.push(u);
                 }
             }
             frontier.retain(|&u| !taken[u as usize]);

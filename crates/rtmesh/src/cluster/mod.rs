@@ -535,6 +535,26 @@ pub(crate) fn prepare<'s>(
     (adjacency, shape, scale, Marks::new(mesh.positions.len()))
 }
 
+/// Most triangles on an edge that clustering joins across. A wider non-manifold edge
+/// (a book's spine, a stack of copies of one triangle) joins none of them: it is no
+/// surface to grow over, and taking it would make every step scan all its triangles.
+pub(crate) const WIDEST_JOINING_EDGE: usize = 8;
+
+/// The triangles that share an edge with triangle `t` (itself included), over edges of
+/// at most [`WIDEST_JOINING_EDGE`] triangles.
+pub(crate) fn edge_neighbours(
+    adjacency: &EdgeAdjacency,
+    t: usize,
+) -> impl Iterator<Item = u32> + '_ {
+    adjacency.triangle_edges[t]
+        .iter()
+        .filter(|&&e| e != NO_EDGE)
+        .map(|&e| adjacency.triangles_of(e))
+        .filter(|shared| shared.len() <= WIDEST_JOINING_EDGE)
+        .flatten()
+        .copied()
+}
+
 /// The clusters of `groups` (each a list of `mesh`'s triangle ids), after
 /// [`merge_small`].
 pub(crate) fn finish(
@@ -620,9 +640,8 @@ fn merge_small(
         }
         let mut neighbours: Vec<u32> = groups[g]
             .iter()
-            .flat_map(|&t| adjacency.triangle_edges[t as usize])
-            .filter(|&e| e != NO_EDGE)
-            .flat_map(|e| adjacency.triangles_of(e).iter().map(|&u| owner[u as usize]))
+            .flat_map(|&t| edge_neighbours(adjacency, t as usize))
+            .map(|u| owner[u as usize])
             .filter(|&h| h != g as u32)
             .collect();
         neighbours.sort_unstable();

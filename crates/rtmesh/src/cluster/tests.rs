@@ -252,3 +252,32 @@ proptest! {
         }
     }
 }
+
+/// A book of pages on one spine edge joins no pages (the edge is wider than
+/// [`WIDEST_JOINING_EDGE`]): every page is a cluster of its own, found without scanning
+/// the spine at every step; and copies of one triangle are clustered with each other.
+#[test]
+fn wide_edges_and_copies_cluster_in_linear_time() {
+    let pages = 20_000;
+    let mut positions = vec![Vec3::ZERO, Vec3::Y];
+    let mut triangles = Vec::new();
+    for p in 0..pages {
+        let angle = p as f32 / pages as f32 * std::f32::consts::PI;
+        positions.push(Vec3::new(angle.cos(), 0.5, angle.sin()));
+        triangles.push([0, 1, p as u32 + 2]);
+    }
+    let book = TriMesh::new(positions, triangles);
+    let settings = ClusterSettings::default();
+    for method in BY_ACCEPTANCE {
+        let clusters = method.cluster(&book, &settings);
+        assert_valid(&book, &clusters, &settings);
+        assert_eq!(clusters.len(), pages, "{method}");
+    }
+    let copies = TriMesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]; 5_000]);
+    let theirs = meshopt::spatial(&copies, &settings);
+    let mut ids = theirs.input_triangle.clone();
+    ids.sort_unstable();
+    assert_eq!(ids, (0..5_000).collect::<Vec<u32>>());
+    // One copy through meshoptimizer, the other 4,999 in clusters of 32.
+    assert_eq!(theirs.len(), 1 + 4_999usize.div_ceil(32));
+}

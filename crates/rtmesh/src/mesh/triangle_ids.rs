@@ -13,6 +13,10 @@ pub(crate) struct TriangleIds {
     ids: Vec<([u32; 3], u32)>,
     /// Whether entry `i` of `ids` was taken.
     taken: Vec<bool>,
+    /// At the first entry of each run of equal corners, how many of the run are taken
+    /// (a run is taken in order, so a lookup need not walk past the taken ones: a
+    /// million copies of one triangle stay O(log T) a lookup).
+    run_taken: Vec<u32>,
 }
 
 impl TriangleIds {
@@ -25,16 +29,23 @@ impl TriangleIds {
             .collect();
         ids.par_sort_unstable();
         let taken = vec![false; ids.len()];
-        Self { ids, taken }
+        let run_taken = vec![0; ids.len()];
+        Self {
+            ids,
+            taken,
+            run_taken,
+        }
     }
 
     /// The lowest untaken id of a triangle with corners `t` in `t`'s winding, taken.
     pub(crate) fn take(&mut self, t: [u32; 3]) -> Option<u32> {
         let key = smallest_first(t);
         let first = self.ids.partition_point(|e| e.0 < key);
-        let slot = (first..self.ids.len())
-            .take_while(|&i| self.ids[i].0 == key)
-            .find(|&i| !self.taken[i])?;
+        let slot = first + *self.run_taken.get(first)? as usize;
+        if slot >= self.ids.len() || self.ids[slot].0 != key {
+            return None;
+        }
+        self.run_taken[first] += 1;
         self.taken[slot] = true;
         Some(self.ids[slot].1)
     }

@@ -1,6 +1,7 @@
 //! The baseline: meshoptimizer's rasterization stripifier (`meshopt_stripify`, through
 //! the `meshopt` crate, which vendors meshoptimizer 1.3), after its vertex-cache
-//! optimisation (`meshopt_optimizeVertexCache`), as a renderer would run it.
+//! optimisation (`meshopt_optimizeVertexCache`), as a renderer would run it, except
+//! around a vertex of over 1,024 triangles, where that optimisation turns quadratic.
 //!
 //! Its strips are rasterization strips with restart indices. To trace them on the same
 //! hierarchy as Strip-RT's, each run is decoded and cut into rtmesh's strip format
@@ -24,6 +25,9 @@ pub struct MeshoptStrips {
     pub native_restarts: usize,
 }
 
+/// Most triangles on one vertex for which the vertex cache is optimised first.
+const MAX_CACHED_VALENCE: u32 = 1024;
+
 /// The restart index passed to meshoptimizer.
 const RESTART: u32 = u32::MAX;
 
@@ -41,11 +45,20 @@ pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
         .collect();
     // meshoptimizer asserts that output and input differ, which two empty vectors'
     // dangling pointers do not.
+    // meshoptimizer's vertex-cache optimiser slows to quadratic time around a vertex
+    // of very high valence (a book of 100,000 pages on one spine took 20 s): past
+    // MAX_CACHED_VALENCE triangles on one vertex the input order is stripped as it is.
+    let mut valence = vec![0u32; vertex_count];
+    for &v in &indices {
+        valence[v as usize] += 1;
+    }
     let native = if indices.is_empty() {
         Vec::new()
-    } else {
+    } else if valence.iter().all(|&n| n <= MAX_CACHED_VALENCE) {
         let cached = ::meshopt::optimize_vertex_cache(&indices, vertex_count);
         ::meshopt::stripify(&cached, vertex_count, RESTART).unwrap_or_default()
+    } else {
+        ::meshopt::stripify(&indices, vertex_count, RESTART).unwrap_or_default()
     };
     let native_restarts = native.iter().filter(|&&i| i == RESTART).count();
 
