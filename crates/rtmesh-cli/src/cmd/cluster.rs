@@ -10,8 +10,8 @@ use serde::Serialize;
 /// compact sets of at most --max-count triangles on at most 256 vertices, grown one
 /// neighbour at a time (or contracted from single triangles) by the acceptance
 /// heuristic Acc(k) (the formula is in crates/rtmesh/src/cluster/mod.rs), stored as u8
-/// indices into each cluster's vertex list. Every frame, `rtmesh dynamic --build clusters` then recomputes only the
-/// clusters' boxes and builds a BVH over them.
+/// indices into each cluster's vertex list. Every frame, `rtmesh dynamic --build
+/// clusters` then recomputes only the clusters' boxes and builds a BVH over them.
 #[derive(clap::Args)]
 pub struct Args {
     /// The mesh file, or builtin:NAME.

@@ -12,7 +12,7 @@ use crate::harness::seconds;
 use rtmesh::animate::Animation;
 use rtmesh::bvh::BuildSettings;
 use rtmesh::cluster::{
-    disconnected, ClusterFrames, ClusterMethod, ClusterSettings, Clusters, Inside,
+    disconnected, ClusterFrames, ClusterMethod, ClusterReport, ClusterSettings, Clusters, Inside,
 };
 use rtmesh::progress::Progress;
 use rtmesh::trace::SceneAccel;
@@ -86,12 +86,8 @@ pub fn cluster_rows(
                 .sah_cost
         })
         .collect();
-    let row = |method: ClusterMethod,
-               matched_to,
-               settings: &ClusterSettings,
-               clusters: &Clusters,
-               s: f64| {
-        let triangles = mesh.triangle_count().max(1) as f64;
+    let row = |method: ClusterMethod, matched_to, max_triangles, clusters: &Clusters, s: f64| {
+        let report = ClusterReport::of(clusters, s);
         let mut cluster_frames = ClusterFrames::new(clusters, Inside::Node);
         let sah = frames
             .iter()
@@ -106,13 +102,13 @@ pub fn cluster_rows(
             mesh: name.to_owned(),
             method: method.name(),
             matched_to,
-            max_triangles: settings.max_triangles,
-            clusters: clusters.len(),
-            mean_triangles: clusters.local_triangles.len() as f64 / clusters.len().max(1) as f64,
-            mean_vertices_per_triangle: clusters.vertices.len() as f64 / triangles,
+            max_triangles,
+            clusters: report.clusters,
+            mean_triangles: report.mean_triangles,
+            mean_vertices_per_triangle: report.mean_vertices_per_triangle,
             disconnected: disconnected(mesh, clusters),
             precompute_seconds: s,
-            precompute_us_per_triangle: 1e6 * s / triangles,
+            precompute_us_per_triangle: 1e6 * s / mesh.triangle_count().max(1) as f64,
             phases: table.phases.clone(),
             sah,
             rebuild_sah: rebuild_sah.clone(),
@@ -137,7 +133,13 @@ pub fn cluster_rows(
         progress.message(&format!("{name}: {method}"));
         let mut clusters = Clusters::default();
         let s = seconds(|| clusters = method.cluster(mesh, &table.settings));
-        rows.push(row(method, None, &table.settings, &clusters, s));
+        rows.push(row(
+            method,
+            None,
+            table.settings.max_triangles,
+            &clusters,
+            s,
+        ));
         // The smallest MaxCount / 4 whose count is at most ours (counts fall as MaxCount
         // grows), or the one below it if that is nearer.
         progress.message(&format!("{name}: meshopt at {method}'s count"));
@@ -159,15 +161,12 @@ pub fn cluster_rows(
         } else {
             lo
         };
-        let settings = ClusterSettings {
-            max_triangles: 4 * nearest,
-            ..table.settings.clone()
-        };
         let (clusters, s) = &theirs[&nearest];
+        let matched = Some(method.name());
         rows.push(row(
             ClusterMethod::Meshopt,
-            Some(method.name()),
-            &settings,
+            matched,
+            4 * nearest,
             clusters,
             *s,
         ));

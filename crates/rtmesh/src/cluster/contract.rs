@@ -99,10 +99,10 @@ pub fn contract(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
         })
     };
     let mut heap = BinaryHeap::new();
-    for t in (0..n as u32).filter(|&t| mergeable(t as usize)) {
-        let neighbours = live[t as usize].as_ref().map(|k| k.neighbours.clone());
-        for u in neighbours.into_iter().flatten().filter(|&u| u > t) {
-            heap.extend(weigh(&live, t, u, &mut marks));
+    for (t, k) in live.iter().enumerate().filter(|&(t, _)| mergeable(t)) {
+        let neighbours = k.as_ref().map_or(&[][..], |k| &k.neighbours);
+        for &u in neighbours.iter().filter(|&&u| u as usize > t) {
+            heap.extend(weigh(&live, t as u32, u, &mut marks));
         }
     }
     while let Some(Candidate { pair, .. }) = heap.pop() {

@@ -68,11 +68,7 @@ pub fn spatial(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
     }
     // What meshoptimizer did not return (none seen so far) and the copies: copies of
     // one triangle together, up to MaxCount a cluster.
-    let mut left = ids.untaken();
-    left.sort_by_key(|&t| (smallest_first(mesh.triangles[t as usize]), t));
-    for same in left.chunk_by(|&a, &b| {
-        smallest_first(mesh.triangles[a as usize]) == smallest_first(mesh.triangles[b as usize])
-    }) {
+    for same in ids.untaken_runs() {
         for chunk in same.chunks(max_triangles) {
             out.push(mesh, chunk);
         }

@@ -343,13 +343,13 @@ impl Set {
 
     /// Take in all of `other` (disjoint from this set); `marks` is scratch.
     pub fn absorb(&mut self, mesh: &TriMesh, other: Set, marks: &mut Marks) {
-        let stamp = marks.stamp(&self.vertices);
-        for &v in &other.vertices {
-            if marks.seen[v as usize] != stamp {
-                self.vertices.push(v);
-                self.vertex_sum += mesh.positions[v as usize];
-            }
+        marks.mark(&self.vertices);
+        let mut fresh = other.vertices;
+        fresh.retain(|&v| !marks.is_marked(v));
+        for &v in &fresh {
+            self.vertex_sum += mesh.positions[v as usize];
         }
+        self.vertices.extend(fresh);
         self.triangles.extend(other.triangles);
         self.normals.extend(other.normals);
         self.normal_sum += other.normal_sum;
@@ -369,8 +369,8 @@ impl Set {
     }
 }
 
-/// Vertex marks for set unions in O(|V₁| + |V₂|): a vertex is in the marked set when
-/// its mark equals the current stamp.
+/// Vertex marks for set unions in O(|V₁| + |V₂|): mark one set, then test the other's
+/// vertices (a vertex is marked when its mark equals the current stamp).
 pub(crate) struct Marks {
     seen: Vec<u32>,
     stamp: u32,
@@ -385,8 +385,8 @@ impl Marks {
         }
     }
 
-    /// Mark `vertices` under a new stamp, and return it.
-    fn stamp(&mut self, vertices: &[u32]) -> u32 {
+    /// Mark `vertices`, and only them.
+    fn mark(&mut self, vertices: &[u32]) {
         self.stamp = self.stamp.wrapping_add(1);
         if self.stamp == 0 {
             self.seen.fill(0);
@@ -395,7 +395,12 @@ impl Marks {
         for &v in vertices {
             self.seen[v as usize] = self.stamp;
         }
-        self.stamp
+    }
+
+    /// Whether `v` was among the vertices last marked.
+    #[inline]
+    fn is_marked(&self, v: u32) -> bool {
+        self.seen[v as usize] == self.stamp
     }
 }
 
@@ -445,14 +450,12 @@ pub(crate) fn acceptance(
     if triangle_count > settings.max_triangles {
         return None;
     }
-    let stamp = marks.stamp(a.vertices);
     let mut vertex_count = a.vertices.len();
     let mut vertex_sum = a.vertex_sum;
-    for &v in b.vertices {
-        if marks.seen[v as usize] != stamp {
-            vertex_count += 1;
-            vertex_sum += mesh.positions[v as usize];
-        }
+    marks.mark(a.vertices);
+    for &v in b.vertices.iter().filter(|&&v| !marks.is_marked(v)) {
+        vertex_count += 1;
+        vertex_sum += mesh.positions[v as usize];
     }
     if vertex_count > settings.max_vertices {
         return None;

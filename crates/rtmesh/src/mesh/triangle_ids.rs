@@ -9,13 +9,11 @@ use rayon::prelude::*;
 
 /// The input ids of a mesh's triangles, looked up by corners.
 pub(crate) struct TriangleIds {
-    /// (corners smallest first, id), sorted.
+    /// (corners smallest first, id), sorted: the copies of one triangle are a run, by id.
     ids: Vec<([u32; 3], u32)>,
-    /// Whether entry `i` of `ids` was taken.
-    taken: Vec<bool>,
-    /// At the first entry of each run of equal corners, how many of the run are taken
-    /// (a run is taken in order, so a lookup need not walk past the taken ones: a
-    /// million copies of one triangle stay O(log T) a lookup).
+    /// At the first entry of each run, how many of the run are taken. A run is taken in
+    /// order, so a lookup never walks past the taken ones: a million copies of one
+    /// triangle stay O(log T) a lookup.
     run_taken: Vec<u32>,
 }
 
@@ -28,13 +26,8 @@ impl TriangleIds {
             .map(|(t, &v)| (smallest_first(v), t as u32))
             .collect();
         ids.par_sort_unstable();
-        let taken = vec![false; ids.len()];
         let run_taken = vec![0; ids.len()];
-        Self {
-            ids,
-            taken,
-            run_taken,
-        }
+        Self { ids, run_taken }
     }
 
     /// The lowest untaken id of a triangle with corners `t` in `t`'s winding, taken.
@@ -46,16 +39,26 @@ impl TriangleIds {
             return None;
         }
         self.run_taken[first] += 1;
-        self.taken[slot] = true;
         Some(self.ids[slot].1)
+    }
+
+    /// The ids never taken, run by run (the untaken copies of one triangle together,
+    /// ascending; the runs in the order of their corners).
+    pub(crate) fn untaken_runs(&self) -> impl Iterator<Item = Vec<u32>> + '_ {
+        self.ids
+            .chunk_by(|a, b| a.0 == b.0)
+            .scan(0, |first, run| {
+                let start = *first;
+                *first += run.len();
+                let taken = self.run_taken[start] as usize;
+                Some(run[taken..].iter().map(|e| e.1).collect::<Vec<u32>>())
+            })
+            .filter(|left| !left.is_empty())
     }
 
     /// The ids never taken, ascending.
     pub(crate) fn untaken(&self) -> Vec<u32> {
-        let mut left: Vec<u32> = (0..self.ids.len())
-            .filter(|&i| !self.taken[i])
-            .map(|i| self.ids[i].1)
-            .collect();
+        let mut left: Vec<u32> = self.untaken_runs().flatten().collect();
         left.sort_unstable();
         left
     }

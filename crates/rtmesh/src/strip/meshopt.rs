@@ -43,8 +43,6 @@ pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
         .flatten()
         .copied()
         .collect();
-    // meshoptimizer asserts that output and input differ, which two empty vectors'
-    // dangling pointers do not.
     // meshoptimizer's vertex-cache optimiser slows to quadratic time around a vertex
     // of very high valence (a book of 100,000 pages on one spine took 20 s): past
     // MAX_CACHED_VALENCE triangles on one vertex the input order is stripped as it is.
@@ -52,6 +50,8 @@ pub fn stripify(mesh: &TriMesh, max_length: usize) -> MeshoptStrips {
     for &v in &indices {
         valence[v as usize] += 1;
     }
+    // meshoptimizer asserts that output and input differ, which two empty vectors'
+    // dangling pointers do not.
     let native = if indices.is_empty() {
         Vec::new()
     } else if valence.iter().all(|&n| n <= MAX_CACHED_VALENCE) {

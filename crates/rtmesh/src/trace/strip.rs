@@ -97,11 +97,17 @@ impl BlockBoxes {
     }
 }
 
-/// The box of 8-bit `planes` within `strip_box`: mins counted up from its min, maxes
-/// down from its max, so that 0 and 255 give its planes exactly.
+/// One 255th of `strip_box`'s extent, the unit of its blocks' planes.
 #[inline(always)]
-fn dequantize(strip_box: &Aabb, planes: [u8; 6]) -> Aabb {
-    let step = strip_box.extent() / 255.0;
+fn plane_step(strip_box: &Aabb) -> Vec3 {
+    strip_box.extent() / 255.0
+}
+
+/// The box of 8-bit `planes` within `strip_box` (`step` its [`plane_step`]): mins
+/// counted up from its min, maxes down from its max, so that 0 and 255 give its planes
+/// exactly.
+#[inline(always)]
+fn dequantize(strip_box: &Aabb, step: Vec3, planes: [u8; 6]) -> Aabb {
     let q = planes.map(f32::from);
     Aabb {
         min: strip_box.min + Vec3::new(q[0], q[1], q[2]) * step,
@@ -113,6 +119,7 @@ fn dequantize(strip_box: &Aabb, planes: [u8; 6]) -> Aabb {
 /// `b` (checked against [`dequantize`] itself, so float rounding cannot shrink it).
 fn quantize(strip_box: &Aabb, b: &Aabb) -> [u8; 6] {
     let extent = strip_box.extent();
+    let step = plane_step(strip_box);
     let mut q = [0u8; 6];
     for axis in 0..3 {
         let scale = if extent[axis] > 0.0 {
@@ -128,10 +135,10 @@ fn quantize(strip_box: &Aabb, b: &Aabb) -> [u8; 6] {
             .clamp(0.0, 255.0) as u8;
     }
     for axis in 0..3 {
-        while q[axis] > 0 && dequantize(strip_box, q).min[axis] > b.min[axis] {
+        while q[axis] > 0 && dequantize(strip_box, step, q).min[axis] > b.min[axis] {
             q[axis] -= 1;
         }
-        while q[axis + 3] < 255 && dequantize(strip_box, q).max[axis] < b.max[axis] {
+        while q[axis + 3] < 255 && dequantize(strip_box, step, q).max[axis] < b.max[axis] {
             q[axis + 3] += 1;
         }
     }
@@ -347,10 +354,11 @@ impl StripAccel {
         let planes =
             &blocks.planes[blocks.block_start[s] as usize..blocks.block_start[s + 1] as usize];
         let strip_box = &blocks.strip_box[s];
+        let step = plane_step(strip_box);
         counters.box_tests(planes.len() as u32);
         let mut entered = 0u16;
         for (i, &q) in planes.iter().enumerate() {
-            if box_entry(&dequantize(strip_box, q), query, *t_max).is_some() {
+            if box_entry(&dequantize(strip_box, step, q), query, *t_max).is_some() {
                 entered |= 1 << i;
             }
         }
@@ -592,7 +600,7 @@ mod tests {
             }
             let strip_box = Aabb::from_points(&points);
             let block = Aabb::from_points(&points[1..]);
-            let back = dequantize(&strip_box, quantize(&strip_box, &block));
+            let back = dequantize(&strip_box, plane_step(&strip_box), quantize(&strip_box, &block));
             for axis in 0..3 {
                 prop_assert!(back.min[axis] <= block.min[axis] && back.max[axis] >= block.max[axis]);
                 prop_assert!(back.min[axis] >= strip_box.min[axis]);

@@ -4,7 +4,6 @@ use crate::args::{file_name, load};
 use crate::output::{json_line, steps_bar};
 use anyhow::{Context, Result};
 use rtmesh::animate::{Animation, Motion};
-use rtmesh::cluster::ClusterSettings;
 use rtmesh::trace::measure::with_threads;
 use rtmesh_lab::tables::clusters::{cluster_rows, ClusterTable};
 
@@ -48,11 +47,7 @@ pub struct Args {
 /// Measure each mesh and print its rows.
 pub fn run(args: Args) -> Result<()> {
     let table = ClusterTable {
-        settings: ClusterSettings {
-            max_triangles: args.max_count as usize,
-            max_size: args.max_size,
-            ..ClusterSettings::default()
-        },
+        settings: crate::cmd::cluster::settings(args.max_count, args.max_size),
         phases: args.phases.clone(),
     };
     if !args.json {
