@@ -54,10 +54,11 @@ pub use contract::contract;
 pub use grow::grow;
 
 use crate::bvh::{BuildSettings, Bvh, Child, Primitive};
+use crate::bvh::{BvhNode, WIDTH};
 use crate::geom::Aabb;
 use crate::mesh::{EdgeAdjacency, TriMesh, NO_EDGE};
-use crate::trace::triangle::Triangle4;
-use crate::trace::{SceneAccel, Triangle};
+use crate::trace::triangle::{Triangle4, TRIANGLE4_LANES};
+use crate::trace::SceneAccel;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -695,89 +696,82 @@ pub enum Inside {
 }
 
 /// The per-frame build over cluster boxes, keeping what frames share: each cluster's
-/// triangle blocks sit at a fixed place in one array (cluster order, lanes fixed), so a
-/// frame rewrites their corners in place, with no allocation, and the BVH's leaves
-/// point at them wherever the build puts the cluster.
+/// triangle blocks, and its node under [`Inside::Node`], sit at a fixed place (cluster
+/// order, lanes fixed), so a frame rewrites them in place, with no allocation, and the
+/// top tree's leaves point at them wherever the build puts the cluster.
 pub struct ClusterFrames<'c> {
     clusters: &'c Clusters,
-    inside: Inside,
     /// Cluster `c`'s blocks are `blocks[block_start[c]..block_start[c + 1]]`.
     block_start: Vec<u32>,
+    /// Cluster `c`'s node is `cluster_nodes[node_of[c]]`, or [`NO_NODE`] when it is
+    /// one leaf.
+    node_of: Vec<u32>,
+    /// The clusters' nodes in this frame, which follow the top tree's in its scene.
+    cluster_nodes: Vec<BvhNode>,
     /// The blocks of the last frame, taken back from its scene ([`Self::recycle`]).
     blocks: Vec<Triangle4>,
-    /// Each block's box in this frame, made while the block is written.
-    block_bounds: Vec<Aabb>,
+    /// The nodes of the last frame, likewise (their room reused).
+    nodes: Vec<BvhNode>,
 }
+
+/// A cluster with no node of its own: its blocks are one leaf.
+const NO_NODE: u32 = u32::MAX;
 
 impl<'c> ClusterFrames<'c> {
     /// Frames of `clusters`, arranged as `inside` says.
     pub fn new(clusters: &'c Clusters, inside: Inside) -> Self {
         let mut block_start = Vec::with_capacity(clusters.len() + 1);
         block_start.push(0u32);
+        let mut node_of = Vec::with_capacity(clusters.len());
+        let mut cluster_nodes = 0u32;
         for c in 0..clusters.len() {
-            let last = block_start[block_start.len() - 1];
-            block_start.push(last + clusters.triangles_of(c).len().div_ceil(4) as u32);
+            let blocks = clusters.triangles_of(c).len().div_ceil(TRIANGLE4_LANES) as u32;
+            block_start.push(block_start[c] + blocks);
+            if inside == Inside::Node && blocks > 1 {
+                node_of.push(cluster_nodes);
+                cluster_nodes += 1;
+            } else {
+                node_of.push(NO_NODE);
+            }
         }
         Self {
             clusters,
-            inside,
             block_start,
+            node_of,
+            cluster_nodes: vec![BvhNode::EMPTY; cluster_nodes as usize],
             blocks: Vec::new(),
-            block_bounds: Vec::new(),
+            nodes: Vec::new(),
         }
     }
 
-    /// Take back the blocks of a scene this built, so that the next frame reuses them.
+    /// Take back the blocks and nodes of a scene this built, so that the next frame
+    /// reuses them.
     pub fn recycle(&mut self, accel: SceneAccel) {
         if let Some(bvh) = accel.into_single_blas() {
             self.blocks = bvh.primitives;
+            self.nodes = bvh.nodes;
         }
     }
 
-    /// Build the tracer's scene for `mesh` (its current positions): every cluster's
-    /// blocks rewritten in place (in parallel, with each block's box), every cluster's
-    /// box, a binned-SAH BVH over the boxes with one cluster per leaf, and each leaf
-    /// its cluster's blocks (hits name `mesh`'s triangle ids).
+    /// Build the tracer's scene for `mesh` (its current positions). In parallel, per
+    /// cluster: its vertices' positions gathered once (at most 256), its blocks
+    /// rewritten in place from them through the u8 indices, with their boxes, its node
+    /// (under [`Inside::Node`]) and its box. Then a binned-SAH BVH over the cluster
+    /// boxes, one cluster per leaf, whose leaves become the clusters' nodes or blocks
+    /// (hits name `mesh`'s triangle ids).
     pub fn build(&mut self, mesh: &TriMesh) -> SceneAccel {
         let start = std::time::Instant::now();
         let clusters = self.clusters;
         let total = self.block_start[self.block_start.len() - 1] as usize;
-        let empty = Triangle4::new(&[Triangle::new([Vec3::ZERO; 3], 0)]);
-        self.blocks.resize(total, empty);
-        self.block_bounds.resize(total, Aabb::EMPTY);
-        let block_start = &self.block_start;
-        // Per cluster: its blocks and their boxes rewritten, and its box from them (the
-        // box the leaf test sees: a block keeps edges, not corners).
+        self.blocks.resize(total, EMPTY_BLOCK);
         let mut boxes: Vec<ClusterBox> = Vec::with_capacity(clusters.len());
-        let (mut rest, mut rest_bounds) = (&mut self.blocks[..], &mut self.block_bounds[..]);
-        let mut slices = Vec::with_capacity(clusters.len());
-        for c in 0..clusters.len() {
-            let count = (block_start[c + 1] - block_start[c]) as usize;
-            let (mine, tail) = rest.split_at_mut(count);
-            let (my_bounds, tail_bounds) = rest_bounds.split_at_mut(count);
-            slices.push((mine, my_bounds));
-            (rest, rest_bounds) = (tail, tail_bounds);
-        }
-        slices
+        self.cluster_parts()
             .into_par_iter()
             .enumerate()
-            .map(|(c, (blocks, block_bounds))| {
-                let range = clusters.triangles_of(c);
-                let mut bounds = Aabb::EMPTY;
-                let starts = range.clone().step_by(4);
-                for ((block, block_box), start) in blocks.iter_mut().zip(block_bounds).zip(starts) {
-                    let mut lanes = [Triangle::new([Vec3::ZERO; 3], 0); 4];
-                    let n = (range.end - start).min(4);
-                    for (lane, i) in (start..start + n).enumerate() {
-                        let id = clusters.input_triangle[i];
-                        lanes[lane] = Triangle::new(mesh.corners(id as usize), id);
-                    }
-                    *block = Triangle4::new(&lanes[..n]);
-                    *block_box = block.bounds();
-                    bounds = bounds.union(*block_box);
-                }
+            .map_init(Vec::new, |local, (c, (first_block, blocks, node))| {
+                let positions = &mesh.positions;
                 ClusterBox {
-                    bounds,
+                    bounds: write_cluster(clusters, c, positions, first_block, blocks, node, local),
                     cluster: c as u32,
                 }
             })
@@ -787,65 +781,138 @@ impl<'c> ClusterFrames<'c> {
             ..BuildSettings::default()
         };
         let over_boxes = Bvh::build(boxes, &settings);
-        let mut nodes = over_boxes.nodes;
-        let inside = self.inside;
-        let block_bounds = &self.block_bounds;
-        // A cluster becomes a leaf of all its blocks (`Inside::Flat`), or a node whose
-        // children are its blocks, one leaf each (`Inside::Node`), with their boxes.
-        let remap = |reference: u32, nodes: &mut Vec<crate::bvh::BvhNode>| -> u32 {
-            match Child::decode(reference) {
-                Child::Leaf { first: leaf, .. } => {
-                    let cluster = over_boxes.primitives[leaf as usize];
-                    let c = cluster.cluster as usize;
-                    let (start, count) = (block_start[c], block_start[c + 1] - block_start[c]);
-                    if inside == Inside::Flat || count == 1 {
-                        let leaf = Child::Leaf {
-                            first: start,
-                            count,
-                        };
-                        return leaf.encode();
+        // The clusters' nodes follow the top tree's (parents first). The top nodes'
+        // boxes are the clusters' boxes, which were made from the blocks: no refit is
+        // needed.
+        let shift = over_boxes.nodes.len() as u32;
+        let (block_start, node_of) = (&self.block_start, &self.node_of);
+        let remap = |reference: u32| match Child::decode(reference) {
+            Child::Inner(_) | Child::Empty => reference,
+            Child::Leaf { first, .. } => {
+                let c = over_boxes.primitives[first as usize].cluster as usize;
+                match node_of[c] {
+                    NO_NODE => Child::Leaf {
+                        first: block_start[c],
+                        count: block_start[c + 1] - block_start[c],
                     }
-                    // Up to 8 children of ⌈count / 8⌉ blocks each (one block each
-                    // for MaxCount ≤ 32, two for up to 60 triangles).
-                    let per = count.div_ceil(crate::bvh::WIDTH as u32);
-                    let mut node = crate::bvh::BvhNode::EMPTY;
-                    for (lane, k) in (0..count).step_by(per as usize).enumerate() {
-                        let n = per.min(count - k);
-                        node.children[lane] = Child::Leaf {
-                            first: start + k,
-                            count: n,
-                        }
-                        .encode();
-                        let range = (start + k) as usize..(start + k + n) as usize;
-                        let b = block_bounds[range]
-                            .iter()
-                            .fold(Aabb::EMPTY, |b, &p| b.union(p));
-                        node.set_child_bounds(lane, b);
-                    }
-                    nodes.push(node);
-                    Child::Inner(nodes.len() as u32 - 1).encode()
+                    .encode(),
+                    n => Child::Inner(shift + n).encode(),
                 }
-                _ => reference,
             }
         };
-        // The top nodes' boxes are the clusters' boxes, which were made from the
-        // blocks: no refit is needed.
-        let inner = nodes.len();
-        for n in 0..inner {
-            for lane in 0..crate::bvh::WIDTH {
-                let child = nodes[n].children[lane];
-                nodes[n].children[lane] = remap(child, &mut nodes);
-            }
-        }
-        let root = remap(over_boxes.root, &mut nodes);
+        let mut nodes = std::mem::take(&mut self.nodes);
+        nodes.clear();
+        nodes.extend(over_boxes.nodes.iter().map(|node| BvhNode {
+            children: node.children.map(remap),
+            ..*node
+        }));
+        nodes.extend_from_slice(&self.cluster_nodes);
         let bvh = Bvh {
-            root,
+            root: remap(over_boxes.root),
             nodes,
             primitives: std::mem::take(&mut self.blocks),
             build_seconds: 0.0,
         };
         SceneAccel::from_single_blas(bvh, mesh.triangle_count(), start)
     }
+
+    /// Each cluster's first block index, its blocks, and its node when it has one, as
+    /// disjoint slices.
+    #[allow(clippy::type_complexity)]
+    fn cluster_parts(&mut self) -> Vec<(u32, &mut [Triangle4], Option<&mut BvhNode>)> {
+        let mut parts = Vec::with_capacity(self.clusters.len());
+        let (mut blocks, mut nodes) = (&mut self.blocks[..], &mut self.cluster_nodes[..]);
+        for (c, &node) in self.node_of.iter().enumerate() {
+            let count = (self.block_start[c + 1] - self.block_start[c]) as usize;
+            let (mine, rest) = std::mem::take(&mut blocks).split_at_mut(count);
+            blocks = rest;
+            let node = (node != NO_NODE).then(|| {
+                let (mine, rest) = std::mem::take(&mut nodes).split_at_mut(1);
+                nodes = rest;
+                &mut mine[0]
+            });
+            parts.push((self.block_start[c], mine, node));
+        }
+        parts
+    }
+}
+
+/// A block before it is written.
+const EMPTY_BLOCK: Triangle4 = Triangle4 {
+    v0: [[0.0; 4]; 3],
+    e1: [[0.0; 4]; 3],
+    e2: [[0.0; 4]; 3],
+    ids: [u32::MAX; 4],
+};
+
+/// Write cluster `c`'s blocks (numbered from `first_block`, packed as
+/// [`Triangle4::new`] packs them) and its node's child boxes from `positions`, through
+/// `local` (its vertices' positions, gathered once), and return its box: the union of
+/// its triangles' boxes as the leaf test sees them (from the stored corner and edges,
+/// as [`crate::trace::Triangle`]'s).
+fn write_cluster(
+    clusters: &Clusters,
+    c: usize,
+    positions: &[Vec3],
+    first_block: u32,
+    blocks: &mut [Triangle4],
+    node: Option<&mut BvhNode>,
+    local: &mut Vec<Vec3>,
+) -> Aabb {
+    local.clear();
+    local.extend(
+        clusters
+            .vertices_of(c)
+            .iter()
+            .map(|&v| positions[v as usize]),
+    );
+    let range = clusters.triangles_of(c);
+    let mut block_bounds = [Aabb::EMPTY; 15];
+    for ((block, block_box), first) in blocks
+        .iter_mut()
+        .zip(&mut block_bounds)
+        .zip(range.clone().step_by(TRIANGLE4_LANES))
+    {
+        let used = (range.end - first).min(TRIANGLE4_LANES);
+        *block = EMPTY_BLOCK;
+        for lane in 0..used {
+            let [a, b, d] = clusters.local_triangles[first + lane].map(|l| local[l as usize]);
+            let (e1, e2) = (b - a, d - a);
+            for axis in 0..3 {
+                block.v0[axis][lane] = a[axis];
+                block.e1[axis][lane] = e1[axis];
+                block.e2[axis][lane] = e2[axis];
+            }
+            block.ids[lane] = clusters.input_triangle[first + lane];
+            *block_box = block_box.union(Aabb::from_points(&[a, a + e1, a + e2]));
+        }
+        // Unused lanes repeat the first corner with zero edges, as `Triangle4::new`.
+        for lane in used..TRIANGLE4_LANES {
+            for axis in 0..3 {
+                block.v0[axis][lane] = block.v0[axis][0];
+            }
+        }
+    }
+    let block_bounds = &block_bounds[..blocks.len()];
+    if let Some(node) = node {
+        // Up to 8 children of ⌈blocks / 8⌉ blocks each (one block each for MaxCount
+        // ≤ 32, two for up to 60 triangles).
+        let per = blocks.len().div_ceil(WIDTH);
+        *node = BvhNode::EMPTY;
+        for (lane, (k, part)) in (0..blocks.len())
+            .step_by(per)
+            .zip(block_bounds.chunks(per))
+            .enumerate()
+        {
+            node.children[lane] = Child::Leaf {
+                first: first_block + k as u32,
+                count: part.len() as u32,
+            }
+            .encode();
+            node.set_child_bounds(lane, part.iter().fold(Aabb::EMPTY, |b, &p| b.union(p)));
+        }
+    }
+    block_bounds.iter().fold(Aabb::EMPTY, |b, &p| b.union(p))
 }
 
 /// The per-frame build over cluster boxes, for one frame.
