@@ -37,14 +37,18 @@
 //! 256) and its triangles as three u8 indices into that list, with the input triangle
 //! ids, 3 bytes per triangle plus 4 per cluster vertex against 12 per triangle.
 //!
-//! **Per frame** ([`ClusterAccel::build`]): each cluster's box from the animated
-//! positions, a binned-SAH BVH over the cluster boxes (one cluster per leaf), and the
-//! leaf's triangles packed into the tracer's 4-wide blocks in growing order: one flat
-//! leaf, as in the slides ([`Inside::Flat`]), or one 8-wide node over the blocks whose
-//! boxes the frame's refit sets ([`Inside::Node`]).
+//! **Per frame** ([`ClusterFrames::build`]): per cluster, its vertices' positions are
+//! gathered once and its triangles written through the u8 indices into the tracer's
+//! 4-wide blocks (in place, at a fixed spot kept from frame to frame), with the
+//! cluster's box; then a binned-SAH BVH over the cluster boxes whose leaves hold up to 8
+//! nearby clusters, as one 8-wide node over their boxes (the slides put a few nearby
+//! clusters in a leaf). A cluster is one flat leaf of its blocks, as in the slides
+//! ([`Inside::Flat`]), or one 8-wide node over the blocks, whose boxes the frame's pass
+//! sets ([`Inside::Node`]).
 //!
 //! Cost: growing is O(T · F) for F candidates on a cluster's frontier (tens); a frame is
-//! O(T) for the boxes and triangle blocks plus a build over T / |k| boxes.
+//! O(T) for the boxes and triangle blocks plus a build over T / |k| boxes that stops at
+//! groups of 8.
 
 mod contract;
 mod grow;
@@ -757,8 +761,8 @@ impl<'c> ClusterFrames<'c> {
     /// cluster: its vertices' positions gathered once (at most 256), its blocks
     /// rewritten in place from them through the u8 indices, with their boxes, its node
     /// (under [`Inside::Node`]) and its box. Then a binned-SAH BVH over the cluster
-    /// boxes, one cluster per leaf, whose leaves become the clusters' nodes or blocks
-    /// (hits name `mesh`'s triangle ids).
+    /// boxes with up to 8 clusters a leaf, each leaf one node over its clusters' nodes
+    /// or blocks (hits name `mesh`'s triangle ids).
     pub fn build(&mut self, mesh: &TriMesh) -> SceneAccel {
         let start = std::time::Instant::now();
         let clusters = self.clusters;
@@ -776,39 +780,60 @@ impl<'c> ClusterFrames<'c> {
                 }
             })
             .collect_into_vec(&mut boxes);
+        // A top leaf holds up to 8 nearby clusters and becomes one 8-wide node over
+        // their boxes: the SAH charges it one test (`leaf_block`), so the build stops
+        // there instead of splitting down to single clusters for the collapse to join.
         let settings = BuildSettings {
-            max_leaf_size: 1,
+            max_leaf_size: WIDTH,
+            leaf_block: WIDTH,
             ..BuildSettings::default()
         };
         let over_boxes = Bvh::build(boxes, &settings);
-        // The clusters' nodes follow the top tree's (parents first). The top nodes'
-        // boxes are the clusters' boxes, which were made from the blocks: no refit is
-        // needed.
-        let shift = over_boxes.nodes.len() as u32;
+        // The top tree's nodes, then the leaves' nodes, then the clusters' (parents
+        // first). Their boxes are the clusters' boxes, which were made from the
+        // blocks: no refit is needed.
+        let top = over_boxes.nodes.len() as u32;
+        let is_group =
+            |r: &u32| matches!(Child::decode(*r), Child::Leaf { count, .. } if count > 1);
+        let references = over_boxes.nodes.iter().flat_map(|n| n.children);
+        let groups = references.chain([over_boxes.root]).filter(is_group).count() as u32;
         let (block_start, node_of) = (&self.block_start, &self.node_of);
-        let remap = |reference: u32| match Child::decode(reference) {
-            Child::Inner(_) | Child::Empty => reference,
-            Child::Leaf { first, .. } => {
-                let c = over_boxes.primitives[first as usize].cluster as usize;
-                match node_of[c] {
-                    NO_NODE => Child::Leaf {
-                        first: block_start[c],
-                        count: block_start[c + 1] - block_start[c],
-                    }
-                    .encode(),
-                    n => Child::Inner(shift + n).encode(),
+        let cluster = |p: u32| {
+            let c = over_boxes.primitives[p as usize].cluster as usize;
+            match node_of[c] {
+                NO_NODE => Child::Leaf {
+                    first: block_start[c],
+                    count: block_start[c + 1] - block_start[c],
                 }
+                .encode(),
+                n => Child::Inner(top + groups + n).encode(),
             }
+        };
+        let mut group_nodes = Vec::with_capacity(groups as usize);
+        let mut remap = |reference: u32| match Child::decode(reference) {
+            Child::Leaf { first, count: 1 } => cluster(first),
+            Child::Leaf { first, count } => {
+                let mut node = BvhNode::EMPTY;
+                for (lane, p) in (first..first + count).enumerate() {
+                    node.children[lane] = cluster(p);
+                    node.set_child_bounds(lane, over_boxes.primitives[p as usize].bounds);
+                }
+                group_nodes.push(node);
+                Child::Inner(top + group_nodes.len() as u32 - 1).encode()
+            }
+            Child::Inner(_) | Child::Empty => reference,
         };
         let mut nodes = std::mem::take(&mut self.nodes);
         nodes.clear();
+        let root = remap(over_boxes.root);
         nodes.extend(over_boxes.nodes.iter().map(|node| BvhNode {
-            children: node.children.map(remap),
+            children: node.children.map(&mut remap),
             ..*node
         }));
+        nodes.extend_from_slice(&group_nodes);
         nodes.extend_from_slice(&self.cluster_nodes);
         let bvh = Bvh {
-            root: remap(over_boxes.root),
+            root,
             nodes,
             primitives: std::mem::take(&mut self.blocks),
             build_seconds: 0.0,
