@@ -51,7 +51,7 @@ pub struct StripRow {
 enum Leaves {
     Triangles(SceneAccel),
     Pairs(SceneAccel<rtmesh::trace::Pair4>),
-    Strips(StripAccel),
+    Strips(Box<StripAccel>),
     #[cfg(feature = "embree")]
     Embree(crate::embree::EmbreeScene),
 }
@@ -64,7 +64,7 @@ impl Leaves {
         match self {
             Leaves::Triangles(a) => go(a, rays),
             Leaves::Pairs(a) => go(a, rays),
-            Leaves::Strips(a) => go(a, rays),
+            Leaves::Strips(a) => go(a.as_ref(), rays),
             #[cfg(feature = "embree")]
             Leaves::Embree(a) => go(a, rays),
         }
@@ -74,7 +74,7 @@ impl Leaves {
         match self {
             Leaves::Triangles(a) => measure(a, work, 1),
             Leaves::Pairs(a) => measure(a, work, 1),
-            Leaves::Strips(a) => measure(a, work, 1),
+            Leaves::Strips(a) => measure(a.as_ref(), work, 1),
             #[cfg(feature = "embree")]
             Leaves::Embree(a) => measure(a, work, 1),
         }
@@ -127,7 +127,7 @@ fn strip_config(
         bytes: accel.hierarchy_bytes() + accel.topology_bytes(),
         total_bytes: accel.hierarchy_bytes() + accel.topology_bytes() + accel.position_bytes(),
         prepare_seconds: seconds,
-        leaves: Leaves::Strips(accel),
+        leaves: Leaves::Strips(Box::new(accel)),
     }
 }
 

@@ -39,6 +39,7 @@
 //! Cost of decoding: one index and one bit per triangle, sequentially within a strip.
 
 pub mod meshopt;
+pub mod packed;
 pub mod sah;
 #[cfg(test)]
 mod tests;
@@ -150,6 +151,23 @@ impl Strips {
             out.strip_start.push(out.triangle_source.len() as u32);
         }
         out
+    }
+
+    /// Renumber the vertices (of a mesh with `vertex_count`) in the order the strips
+    /// first use them; returns the old vertex id of each new one (unused vertices are
+    /// dropped). [`packed::PackedStrips`] needs this numbering.
+    pub fn renumber_by_first_use(&mut self, vertex_count: usize) -> Vec<u32> {
+        let mut new_index = vec![u32::MAX; vertex_count];
+        let mut old_of_new = Vec::new();
+        for v in &mut self.indices {
+            let slot = &mut new_index[*v as usize];
+            if *slot == u32::MAX {
+                *slot = old_of_new.len() as u32;
+                old_of_new.push(*v);
+            }
+            *v = *slot;
+        }
+        old_of_new
     }
 
     /// Bytes of topology: indices, turn bits and the strip table (the map back to input

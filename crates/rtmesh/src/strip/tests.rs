@@ -1,3 +1,4 @@
+use super::packed::PackedStrips;
 use super::sah::{stripify, StripSettings};
 use super::*;
 use crate::scenes;
@@ -112,6 +113,26 @@ fn inconsistent_winding_and_nonmanifold_edges_break_strips() {
     assert_eq!(strips.len(), 4);
 }
 
+/// Renumbered by first use and packed, the strips decode to the same triangles (in
+/// the new numbering), corner by corner, and name the same positions.
+fn assert_packs_losslessly(mesh: &TriMesh, strips: &Strips) {
+    let mut renumbered = strips.clone();
+    let old_of_new = renumbered.renumber_by_first_use(mesh.positions.len());
+    let packed = PackedStrips::pack(&renumbered).expect("numbered by first use");
+    for s in 0..strips.len() {
+        let mut expected = Vec::new();
+        renumbered.for_each_triangle(s, |k, t| expected.push((k, t)));
+        let mut old = Vec::new();
+        strips.for_each_triangle(s, |_, t| old.push(t));
+        let mut decoded = Vec::new();
+        packed.for_each_triangle(&packed.start(s), |k, t| decoded.push((k, t)));
+        assert_eq!(decoded, expected, "strip {s}");
+        for ((_, new), old) in decoded.iter().zip(&old) {
+            assert_eq!(new.map(|v| old_of_new[v as usize]), *old, "strip {s}");
+        }
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
@@ -123,6 +144,8 @@ proptest! {
         assert_valid(&mesh, &strips, max_length);
         let theirs = meshopt::stripify(&mesh, max_length);
         assert_valid(&mesh, &theirs.strips, max_length);
+        assert_packs_losslessly(&mesh, &strips);
+        assert_packs_losslessly(&mesh, &theirs.strips);
     }
 
     /// A grid with holes punched in it.

@@ -3,9 +3,11 @@
 //! where to put the split inside the strip"; Lauterbach's thesis, ch. 3).
 //!
 //! The top is rtmesh's 8-wide binned-SAH BVH over the strips' boxes, up to
-//! `strips_per_leaf` strips a leaf, with the strips stored in leaf order. A leaf visit
-//! decodes each strip's triangles from the shared vertex buffer (one index and one
-//! turn bit each: [`crate::strip::Strips`]) into the tracer's 4-wide blocks on the
+//! `strips_per_leaf` strips a leaf, with the strips stored in leaf order and the vertex
+//! buffer renumbered in the order they first use it, so that the strips are kept
+//! packed ([`PackedStrips`]: a bit per fresh index, a byte per nearby reuse). A leaf
+//! holds each strip's [`Cursor`] into that stream; a visit decodes each strip's
+//! triangles from the shared vertex buffer into the tracer's 4-wide blocks on the
 //! stack. Inside a strip ([`Inside`]):
 //!
 //! - [`Inside::Flat`]: every block of the strip is tested;
@@ -31,9 +33,9 @@ use super::{traverse, Counters, Hit, LeafBlock, RayQuery, Tracer, Triangle};
 use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive};
 use crate::geom::{Aabb, Ray};
 use crate::simd::{dispatch, Isa, Kernel};
+use crate::strip::packed::{Cursor, PackedStrips};
 use crate::strip::Strips;
 use glam::Vec3;
-use std::cell::RefCell;
 
 /// Longest strip the tracer takes (a strip is decoded on the stack).
 pub const MAX_TRACED_LENGTH: usize = 64;
@@ -167,14 +169,8 @@ impl Primitive for StripBox {
     }
 }
 
-/// A BVH leaf: strips `first .. first + count` in leaf order.
-#[derive(Clone, Copy, Debug)]
-pub struct StripRange {
-    first: u32,
-    count: u32,
-}
-
-impl Primitive for StripRange {
+/// A strip in a BVH leaf is its cursor into the packed stream (its box is the node's).
+impl Primitive for Cursor {
     fn bounds(&self) -> Aabb {
         Aabb::EMPTY
     }
@@ -182,8 +178,10 @@ impl Primitive for StripRange {
 
 /// Strips traced directly.
 pub struct StripAccel {
-    bvh: Bvh<StripRange>,
-    strips: Strips,
+    bvh: Bvh<Cursor>,
+    strips: PackedStrips,
+    /// The input triangle id of each triangle in strip order.
+    triangle_source: Vec<u32>,
     positions: Vec<Vec3>,
     inside: Inside,
     /// The stored boxes, for [`Inside::Quantized`].
@@ -235,35 +233,29 @@ impl StripAccel {
             ..BuildSettings::quality()
         };
         let tree = Bvh::build(boxes, &settings);
-        // Strips in leaf order, each leaf a contiguous range of them.
-        let order = RefCell::new(Vec::with_capacity(strips.len()));
-        let mut bvh = tree.map_leaves(|leaf| {
-            let mut order = order.borrow_mut();
-            let first = order.len() as u32;
-            order.extend(leaf.iter().map(|b| b.strip));
-            StripRange {
-                first,
-                count: leaf.len() as u32,
-            }
-        });
-        let mut strips = strips.reordered(&order.into_inner());
+        // Strips in leaf order.
+        let order: Vec<u32> = tree.primitives.iter().map(|b| b.strip).collect();
+        let mut strips = strips.reordered(&order);
         // The vertex buffer in the order the strips first use it, so that a leaf's
-        // corners are near each other in memory.
-        let mut new_index = vec![u32::MAX; positions.len()];
-        let mut reordered = Vec::with_capacity(positions.len());
-        for v in &mut strips.indices {
-            let slot = &mut new_index[*v as usize];
-            if *slot == u32::MAX {
-                *slot = reordered.len() as u32;
-                reordered.push(positions[*v as usize]);
-            }
-            *v = *slot;
-        }
+        // corners are near each other in memory and the strips pack.
+        let reordered: Vec<Vec3> = strips
+            .renumber_by_first_use(positions.len())
+            .iter()
+            .map(|&v| positions[v as usize])
+            .collect();
         let blocks = (inside == Inside::Quantized).then(|| BlockBoxes::build(&strips, &reordered));
-        bvh.build_seconds = start.elapsed().as_secs_f64();
+        let packed =
+            PackedStrips::pack(&strips).expect("vertices numbered by first use, strips of ≤ 64");
+        let bvh = Bvh {
+            primitives: (0..strips.len()).map(|s| packed.start(s)).collect(),
+            nodes: tree.nodes,
+            root: tree.root,
+            build_seconds: start.elapsed().as_secs_f64(),
+        };
         Ok(Self {
             bvh,
-            strips,
+            strips: packed,
+            triangle_source: strips.triangle_source,
             positions: reordered,
             inside,
             blocks,
@@ -275,14 +267,14 @@ impl StripAccel {
         self.bvh.stats()
     }
 
-    /// Bytes of the hierarchy: the top BVH's nodes and leaf ranges.
+    /// Bytes of the hierarchy: the top BVH's nodes and its leaves' strip cursors.
     pub fn hierarchy_bytes(&self) -> usize {
         self.bvh.stats().node_bytes
             + std::mem::size_of_val(self.bvh.primitives.as_slice())
             + self.blocks.as_ref().map_or(0, BlockBoxes::bytes)
     }
 
-    /// Bytes of the strips' topology ([`Strips::bytes`]).
+    /// Bytes of the strips' topology ([`PackedStrips::bytes`]).
     pub fn topology_bytes(&self) -> usize {
         self.strips.bytes()
     }
@@ -297,17 +289,17 @@ impl StripAccel {
         self.bvh.build_seconds
     }
 
-    /// Decode strip `s` into `buffer`; returns its triangles. The buffer is not
-    /// zero-filled per ray (that costs as much as a traversal), so only the decoded
+    /// Decode the strip at `cursor` into `buffer`; returns its triangles. The buffer is
+    /// not zero-filled per ray (that costs as much as a traversal), so only the decoded
     /// prefix is read.
     #[inline(always)]
-    fn decode<'b>(&self, s: usize, buffer: &'b mut Decoded) -> &'b [Triangle] {
-        let first = self.strips.triangles_of(s).start;
+    fn decode<'b>(&self, cursor: &Cursor, buffer: &'b mut Decoded) -> &'b [Triangle] {
+        let first = cursor.triangle as usize;
         let mut n = 0;
-        self.strips.for_each_triangle(s, |k, t| {
+        self.strips.for_each_triangle(cursor, |k, t| {
             buffer.0[k - first].write(Triangle::new(
                 t.map(|v| self.positions[v as usize]),
-                self.strips.triangle_source[k],
+                self.triangle_source[k],
             ));
             n += 1;
         });
@@ -316,12 +308,12 @@ impl StripAccel {
         unsafe { std::slice::from_raw_parts(buffer.0.as_ptr().cast::<Triangle>(), n) }
     }
 
-    /// Test strip `s`'s triangles (decoded into `buffer` as needed); `f` tests one
-    /// block and returns whether to stop.
+    /// Test the triangles of the strip at `cursor` (decoded into `buffer` as needed);
+    /// `f` tests one block and returns whether to stop.
     #[inline(always)]
     fn visit_strip<C: Counters>(
         &self,
-        s: usize,
+        cursor: &Cursor,
         buffer: &mut Decoded,
         query: &RayQuery,
         t_max: &mut f32,
@@ -329,9 +321,9 @@ impl StripAccel {
         f: impl FnMut(&Triangle4, &mut f32) -> bool,
     ) -> bool {
         match &self.blocks {
-            Some(blocks) => self.visit_quantized(s, blocks, buffer, query, t_max, counters, f),
+            Some(blocks) => self.visit_quantized(cursor, blocks, buffer, query, t_max, counters, f),
             None => {
-                let triangles = self.decode(s, buffer);
+                let triangles = self.decode(cursor, buffer);
                 self.visit(triangles, query, t_max, counters, f)
             }
         }
@@ -343,7 +335,7 @@ impl StripAccel {
     #[inline(always)]
     fn visit_quantized<C: Counters>(
         &self,
-        s: usize,
+        cursor: &Cursor,
         blocks: &BlockBoxes,
         buffer: &mut Decoded,
         query: &RayQuery,
@@ -351,6 +343,7 @@ impl StripAccel {
         counters: &mut C,
         mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
     ) -> bool {
+        let s = cursor.strip as usize;
         let planes =
             &blocks.planes[blocks.block_start[s] as usize..blocks.block_start[s + 1] as usize];
         let strip_box = &blocks.strip_box[s];
@@ -365,17 +358,16 @@ impl StripAccel {
         if entered == 0 {
             return false;
         }
-        let range = self.strips.triangles_of(s);
-        let first = range.start;
-        self.strips.for_each_triangle(s, |k, t| {
+        let first = cursor.triangle as usize;
+        self.strips.for_each_triangle(cursor, |k, t| {
             if entered & (1 << ((k - first) / 4)) != 0 {
                 buffer.0[k - first].write(Triangle::new(
                     t.map(|v| self.positions[v as usize]),
-                    self.strips.triangle_source[k],
+                    self.triangle_source[k],
                 ));
             }
         });
-        let n = range.len();
+        let n = self.strips.length(cursor);
         for i in (0..planes.len()).filter(|&i| entered & (1 << i) != 0) {
             let (lo, hi) = (4 * i, (4 * i + 4).min(n));
             // SAFETY: every triangle of an entered block was written above, and
@@ -466,9 +458,9 @@ impl StripAccel {
             counters,
             |leaf, t_max, counters| {
                 let before = found;
-                for s in leaf[0].first..leaf[0].first + leaf[0].count {
+                for cursor in leaf {
                     let (b, q) = (&mut buffer, &query);
-                    self.visit_strip(s as usize, b, q, t_max, counters, |block, t_max| {
+                    self.visit_strip(cursor, b, q, t_max, counters, |block, t_max| {
                         if block.intersect_into(&query, &mut hit) {
                             *t_max = hit.t;
                             found = true;
@@ -499,9 +491,9 @@ impl StripAccel {
             counters,
             |leaf, t_max, counters| {
                 let mut t = t_max;
-                (leaf[0].first..leaf[0].first + leaf[0].count).any(|s| {
+                leaf.iter().any(|cursor| {
                     let (b, q) = (&mut buffer, &query);
-                    self.visit_strip(s as usize, b, q, &mut t, counters, |block, t_max| {
+                    self.visit_strip(cursor, b, q, &mut t, counters, |block, t_max| {
                         block.occludes(&query, *t_max)
                     })
                 })
