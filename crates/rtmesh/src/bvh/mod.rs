@@ -15,8 +15,10 @@
 //! as one reverse pass.
 
 mod build;
+mod quantized;
 
 pub use build::BuildSettings;
+pub use quantized::{QuantizedBvh, QuantizedNode};
 
 use crate::geom::Aabb;
 use crate::pages::{copy_to_huge_pages, vec_on_huge_pages};

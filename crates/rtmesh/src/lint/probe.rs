@@ -72,7 +72,7 @@ pub(super) fn probe_crossings<R: Send>(
                 let placement = &scene.instances[instance];
                 let local = transform_query(&query, to_object);
                 let alpha = &scene.meshes[placement.mesh].alpha_tested;
-                any_hit::<Portable, _, _>(
+                any_hit::<Portable, _, _, _>(
                     &accel.blas[placement.mesh],
                     &local,
                     ray.t_max,
@@ -109,7 +109,7 @@ pub(super) fn probe_crossings<R: Send>(
                     cross(0, &glam::Affine3A::IDENTITY);
                 }
                 Some(tlas) => {
-                    any_hit::<Portable, _, _>(
+                    any_hit::<Portable, _, _, _>(
                         tlas,
                         &query,
                         ray.t_max,

@@ -19,7 +19,8 @@
 //!   most 64 triangles).
 //!
 //! The stream is sequential: a strip is decoded from a [`Cursor`] at its start, which
-//! the tracer keeps in its BVH leaves (16 bytes a strip, counted with the hierarchy).
+//! the tracer keeps in its BVH leaves (12 bytes a strip, counted with the hierarchy; the
+//! strip's index is its leaf's place, as the strips are stored in leaf order).
 //! Why a byte and an escape rather than a fixed width: most reuses are a few dozen
 //! vertices back and a few are hundreds of thousands (docs/measurements/strips.md has
 //! the distribution on the scans).
@@ -32,8 +33,6 @@ use super::Strips;
 /// Where a strip's decoding starts in a [`PackedStrips`] stream.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Cursor {
-    /// The strip.
-    pub strip: u32,
     /// Its first triangle in strip order.
     pub triangle: u32,
     /// Its first byte in `back`.
@@ -97,7 +96,6 @@ impl PackedStrips {
             })?;
             out.lengths.push(length);
             out.starts.push(Cursor {
-                strip: s as u32,
                 triangle: range.start as u32,
                 back: out.back.len() as u32,
                 next_fresh,
@@ -136,10 +134,10 @@ impl PackedStrips {
         self.starts[s]
     }
 
-    /// Triangles of the strip at `cursor`.
+    /// Triangles of strip `s`.
     #[inline(always)]
-    pub fn length(&self, cursor: &Cursor) -> usize {
-        usize::from(self.lengths[cursor.strip as usize])
+    pub fn length(&self, s: usize) -> usize {
+        usize::from(self.lengths[s])
     }
 
     /// Bytes of topology: fresh bits, reuse distances, turn bits and lengths.
@@ -147,13 +145,13 @@ impl PackedStrips {
         4 * (self.fresh.len() + self.turns.len()) + self.back.len() + self.lengths.len()
     }
 
-    /// Call `f(k, [p, q, r])` for each triangle of the strip at `cursor`, as
-    /// [`Strips::for_each_triangle`] does.
+    /// Call `f(k, [p, q, r])` for each triangle of strip `s`, whose cursor is
+    /// `cursor` ([`Self::start`]), as [`Strips::for_each_triangle`] does.
     #[inline(always)]
-    pub fn for_each_triangle(&self, cursor: &Cursor, mut f: impl FnMut(usize, [u32; 3])) {
-        let length = self.length(cursor);
+    pub fn for_each_triangle(&self, s: usize, cursor: &Cursor, mut f: impl FnMut(usize, [u32; 3])) {
+        let length = self.length(s);
         let first = cursor.triangle as usize;
-        let mut slot = first + 2 * cursor.strip as usize;
+        let mut slot = first + 2 * s;
         let mut back = cursor.back as usize;
         let mut next_fresh = cursor.next_fresh;
         // Branch-free on fresh against reuse (about as often one as the other): the
@@ -214,7 +212,7 @@ mod tests {
         assert_eq!(packed.lengths, vec![2, 1]);
         let mut decoded = Vec::new();
         for s in 0..strips.len() {
-            packed.for_each_triangle(&packed.start(s), |k, t| decoded.push((k, t)));
+            packed.for_each_triangle(s, &packed.start(s), |k, t| decoded.push((k, t)));
         }
         let mut expected = Vec::new();
         for s in 0..strips.len() {
@@ -230,7 +228,7 @@ mod tests {
         let packed = PackedStrips::pack(&strips).unwrap();
         assert_eq!(packed.back, vec![1, 2, 0, 44, 1, 0, 0, 0]);
         let mut last = Vec::new();
-        packed.for_each_triangle(&packed.start(2), |_, t| last.push(t));
+        packed.for_each_triangle(2, &packed.start(2), |_, t| last.push(t));
         assert_eq!(last, vec![[299, 298, 0]]);
     }
 

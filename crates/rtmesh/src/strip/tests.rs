@@ -125,7 +125,7 @@ fn assert_packs_losslessly(mesh: &TriMesh, strips: &Strips) {
         let mut old = Vec::new();
         strips.for_each_triangle(s, |_, t| old.push(t));
         let mut decoded = Vec::new();
-        packed.for_each_triangle(&packed.start(s), |k, t| decoded.push((k, t)));
+        packed.for_each_triangle(s, &packed.start(s), |k, t| decoded.push((k, t)));
         assert_eq!(decoded, expected, "strip {s}");
         for ((_, new), old) in decoded.iter().zip(&old) {
             assert_eq!(new.map(|v| old_of_new[v as usize]), *old, "strip {s}");

@@ -294,7 +294,7 @@ impl<L: LeafBlock> SceneAccel<L> {
                 }
             }
             Some(tlas) => {
-                closest_hit::<S, _, _>(
+                closest_hit::<S, _, _, _>(
                     tlas,
                     &query,
                     &mut hit.t.clone(),
@@ -341,7 +341,7 @@ impl<L: LeafBlock> SceneAccel<L> {
             None => self.blas.first().is_some_and(|bvh| {
                 occluded_blas::<S, _, _>(bvh, &query, ray.t_max, counters, leaf)
             }),
-            Some(tlas) => any_hit::<S, _, _>(
+            Some(tlas) => any_hit::<S, _, _, _>(
                 tlas,
                 &query,
                 ray.t_max,
@@ -563,7 +563,7 @@ fn intersect_blas<S: Isa, L: LeafBlock, C: Counters>(
     leaf: impl Fn(&L, &RayQuery, &mut Hit) -> bool,
 ) -> bool {
     let mut t_max = hit.t;
-    closest_hit::<S, _, _>(
+    closest_hit::<S, _, _, _>(
         bvh,
         query,
         &mut t_max,
@@ -591,7 +591,7 @@ fn occluded_blas<S: Isa, L: LeafBlock, C: Counters>(
     counters: &mut C,
     leaf: impl Fn(&L, &RayQuery, f32) -> bool,
 ) -> bool {
-    any_hit::<S, _, _>(
+    any_hit::<S, _, _, _>(
         bvh,
         query,
         t_max,

@@ -3,7 +3,9 @@
 //! where to put the split inside the strip"; Lauterbach's thesis, ch. 3).
 //!
 //! The top is rtmesh's 8-wide binned-SAH BVH over the strips' boxes, up to
-//! `strips_per_leaf` strips a leaf, with the strips stored in leaf order and the vertex
+//! `strips_per_leaf` strips a leaf, stored with quantized nodes ([`QuantizedBvh`]: 80
+//! bytes a node instead of 256, 8-bit child planes; the top tree was two thirds of the
+//! strips' bytes in f32), with the strips stored in leaf order and the vertex
 //! buffer renumbered in the order they first use it, so that the strips are kept
 //! packed ([`PackedStrips`]: a bit per fresh index, a byte per nearby reuse). A leaf
 //! holds each strip's [`Cursor`] into that stream; a visit decodes each strip's
@@ -30,7 +32,7 @@
 
 use super::triangle::Triangle4;
 use super::{traverse, Counters, Hit, LeafBlock, RayQuery, Tracer, Triangle};
-use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive};
+use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive, QuantizedBvh};
 use crate::geom::{Aabb, Ray};
 use crate::simd::{dispatch, Isa, Kernel};
 use crate::strip::packed::{Cursor, PackedStrips};
@@ -158,6 +160,7 @@ impl Decoded {
 }
 
 /// A strip's box, for the build.
+#[derive(Clone)]
 struct StripBox {
     strip: u32,
     bounds: Aabb,
@@ -178,7 +181,9 @@ impl Primitive for Cursor {
 
 /// Strips traced directly.
 pub struct StripAccel {
-    bvh: Bvh<Cursor>,
+    bvh: QuantizedBvh<Cursor>,
+    /// The top tree's figures, from its f32 build (node bytes those of `bvh`).
+    stats: BvhStats,
     strips: PackedStrips,
     /// The input triangle id of each triangle in strip order.
     triangle_source: Vec<u32>,
@@ -233,8 +238,9 @@ impl StripAccel {
             ..BuildSettings::quality()
         };
         let tree = Bvh::build(boxes, &settings);
-        // Strips in leaf order.
-        let order: Vec<u32> = tree.primitives.iter().map(|b| b.strip).collect();
+        let quantized = QuantizedBvh::from_bvh(&tree);
+        // Strips in the quantized tree's leaf order.
+        let order: Vec<u32> = quantized.primitives.iter().map(|b| b.strip).collect();
         let mut strips = strips.reordered(&order);
         // The vertex buffer in the order the strips first use it, so that a leaf's
         // corners are near each other in memory and the strips pack.
@@ -246,14 +252,19 @@ impl StripAccel {
         let blocks = (inside == Inside::Quantized).then(|| BlockBoxes::build(&strips, &reordered));
         let packed =
             PackedStrips::pack(&strips).expect("vertices numbered by first use, strips of ≤ 64");
-        let bvh = Bvh {
+        let bvh = QuantizedBvh {
             primitives: (0..strips.len()).map(|s| packed.start(s)).collect(),
-            nodes: tree.nodes,
-            root: tree.root,
+            nodes: quantized.nodes,
+            root: quantized.root,
+        };
+        let stats = BvhStats {
+            node_bytes: bvh.node_bytes(),
             build_seconds: start.elapsed().as_secs_f64(),
+            ..tree.stats()
         };
         Ok(Self {
             bvh,
+            stats,
             strips: packed,
             triangle_source: strips.triangle_source,
             positions: reordered,
@@ -264,12 +275,12 @@ impl StripAccel {
 
     /// Figures of the top BVH.
     pub fn stats(&self) -> BvhStats {
-        self.bvh.stats()
+        self.stats.clone()
     }
 
     /// Bytes of the hierarchy: the top BVH's nodes and its leaves' strip cursors.
     pub fn hierarchy_bytes(&self) -> usize {
-        self.bvh.stats().node_bytes
+        self.stats.node_bytes
             + std::mem::size_of_val(self.bvh.primitives.as_slice())
             + self.blocks.as_ref().map_or(0, BlockBoxes::bytes)
     }
@@ -286,7 +297,15 @@ impl StripAccel {
 
     /// Seconds the build took.
     pub fn build_seconds(&self) -> f64 {
-        self.bvh.build_seconds
+        self.stats.build_seconds
+    }
+
+    /// The strip at `cursor`: the strips are stored in leaf order, so its index is the
+    /// cursor's place among the leaves' cursors.
+    #[inline(always)]
+    fn strip_of(&self, cursor: &Cursor) -> usize {
+        let base = self.bvh.primitives.as_ptr() as usize;
+        (cursor as *const Cursor as usize - base) / std::mem::size_of::<Cursor>()
     }
 
     /// Decode the strip at `cursor` into `buffer`; returns its triangles. The buffer is
@@ -296,13 +315,14 @@ impl StripAccel {
     fn decode<'b>(&self, cursor: &Cursor, buffer: &'b mut Decoded) -> &'b [Triangle] {
         let first = cursor.triangle as usize;
         let mut n = 0;
-        self.strips.for_each_triangle(cursor, |k, t| {
-            buffer.0[k - first].write(Triangle::new(
-                t.map(|v| self.positions[v as usize]),
-                self.triangle_source[k],
-            ));
-            n += 1;
-        });
+        self.strips
+            .for_each_triangle(self.strip_of(cursor), cursor, |k, t| {
+                buffer.0[k - first].write(Triangle::new(
+                    t.map(|v| self.positions[v as usize]),
+                    self.triangle_source[k],
+                ));
+                n += 1;
+            });
         // SAFETY: `for_each_triangle` visits the strip's `n` ≤ MAX_TRACED_LENGTH
         // triangles at positions 0..n (checked in `build`), each written above.
         unsafe { std::slice::from_raw_parts(buffer.0.as_ptr().cast::<Triangle>(), n) }
@@ -343,7 +363,7 @@ impl StripAccel {
         counters: &mut C,
         mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
     ) -> bool {
-        let s = cursor.strip as usize;
+        let s = self.strip_of(cursor);
         let planes =
             &blocks.planes[blocks.block_start[s] as usize..blocks.block_start[s + 1] as usize];
         let strip_box = &blocks.strip_box[s];
@@ -359,7 +379,7 @@ impl StripAccel {
             return false;
         }
         let first = cursor.triangle as usize;
-        self.strips.for_each_triangle(cursor, |k, t| {
+        self.strips.for_each_triangle(s, cursor, |k, t| {
             if entered & (1 << ((k - first) / 4)) != 0 {
                 buffer.0[k - first].write(Triangle::new(
                     t.map(|v| self.positions[v as usize]),
@@ -367,7 +387,7 @@ impl StripAccel {
                 ));
             }
         });
-        let n = self.strips.length(cursor);
+        let n = self.strips.length(s);
         for i in (0..planes.len()).filter(|&i| entered & (1 << i) != 0) {
             let (lo, hi) = (4 * i, (4 * i + 4).min(n));
             // SAFETY: every triangle of an entered block was written above, and
@@ -451,7 +471,7 @@ impl StripAccel {
         let mut buffer = Decoded::new();
         let mut t_max = ray.t_max;
         let mut found = false;
-        traverse::closest_hit::<S, _, C>(
+        traverse::closest_hit::<S, _, _, C>(
             &self.bvh,
             &query,
             &mut t_max,
@@ -484,7 +504,7 @@ impl StripAccel {
     fn occluded_with<S: Isa, C: Counters>(&self, ray: &Ray, counters: &mut C) -> bool {
         let query = RayQuery::new(ray);
         let mut buffer = Decoded::new();
-        traverse::any_hit::<S, _, C>(
+        traverse::any_hit::<S, _, _, C>(
             &self.bvh,
             &query,
             ray.t_max,

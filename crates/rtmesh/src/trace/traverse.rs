@@ -17,7 +17,7 @@ mod avx;
 
 use super::{Counters, RayQuery};
 use crate::bvh::WIDTH;
-use crate::bvh::{Bvh, BvhNode, Child, EMPTY_CHILD};
+use crate::bvh::{Bvh, BvhNode, Child, QuantizedBvh, QuantizedNode, EMPTY_CHILD};
 use crate::simd::Isa;
 use wide::f32x8;
 
@@ -59,24 +59,27 @@ impl<T: Copy> Stack<T> {
     }
 }
 
-/// Near distances and hit mask of `node`'s children, with the node test of `S`: AVX's
-/// 256-bit registers, or `wide`'s portable 8 lanes (the reference: the same operations,
-/// so the same results).
+/// Near distances and hit mask of the eight child boxes `planes` (laid out as
+/// [`BvhNode::planes`]), with the node test of `S`: AVX's 256-bit registers, or `wide`'s
+/// portable 8 lanes (the reference: the same operations, so the same results).
 #[inline(always)]
-pub(crate) fn children<S: Isa>(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+pub(crate) fn children<S: Isa>(
+    planes: &[[f32; WIDTH]; 6],
+    ray: &RayQuery,
+    t_max: f32,
+) -> ([f32; WIDTH], u32) {
     #[cfg(target_arch = "x86_64")]
     if S::AVX {
         // SAFETY: code with an AVX `Isa` runs only on CPUs with AVX, compiled with it.
-        return unsafe { avx::avx_children(node, ray, t_max) };
+        return unsafe { avx::avx_children(planes, ray, t_max) };
     }
-    portable_children(node, ray, t_max)
+    portable_children(planes, ray, t_max)
 }
 
 /// The node test on any CPU: `wide`'s 8-lane floats (two SSE/NEON halves, or AVX when
 /// the whole program is compiled for it).
 #[inline(always)]
-fn portable_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
-    let p = &node.planes;
+fn portable_children(p: &[[f32; WIDTH]; 6], ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
     let ([nx, ny, nz], [fx, fy, fz]) = (ray.near_plane, ray.far_plane);
     let o = ray.origin;
     let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
@@ -90,6 +93,100 @@ fn portable_children(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH
         .fast_min(slab(fy, o.y, f.y))
         .fast_min(slab(fz, o.z, f.z).fast_min(f32x8::splat(t_max)));
     (near.to_array(), near.simd_le(far).to_bitmask())
+}
+
+/// A tree the single-ray traversal walks: 8-wide nodes of child references
+/// ([`Child`]'s encoding) over primitives in leaf order. [`Bvh`]'s nodes hold f32
+/// planes; [`QuantizedBvh`]'s decode theirs first.
+pub(crate) trait WideTree<P> {
+    /// Its node.
+    type Node;
+    /// The root reference.
+    fn root(&self) -> u32;
+    /// Inner node `index`.
+    fn node(&self, index: u32) -> &Self::Node;
+    /// The primitives in leaf order.
+    fn primitives(&self) -> &[P];
+    /// Near distances and hit mask of the node's children.
+    fn test<S: Isa>(node: &Self::Node, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32);
+    /// The reference of child `lane`.
+    fn child(node: &Self::Node, lane: usize) -> u32;
+    /// Children the node holds (its box tests).
+    fn occupied(node: &Self::Node) -> u32;
+    /// Where a node's test starts reading, for a prefetch.
+    fn node_start(node: &Self::Node) -> &[u8; 64];
+}
+
+impl<P> WideTree<P> for Bvh<P> {
+    type Node = BvhNode;
+    #[inline(always)]
+    fn root(&self) -> u32 {
+        self.root
+    }
+    #[inline(always)]
+    fn node(&self, index: u32) -> &BvhNode {
+        &self.nodes[index as usize]
+    }
+    #[inline(always)]
+    fn primitives(&self) -> &[P] {
+        &self.primitives
+    }
+    #[inline(always)]
+    fn test<S: Isa>(node: &BvhNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+        children::<S>(&node.planes, ray, t_max)
+    }
+    #[inline(always)]
+    fn child(node: &BvhNode, lane: usize) -> u32 {
+        node.children[lane]
+    }
+    #[inline(always)]
+    fn occupied(node: &BvhNode) -> u32 {
+        node.children.iter().filter(|&&c| c != EMPTY_CHILD).count() as u32
+    }
+    #[inline(always)]
+    fn node_start(node: &BvhNode) -> &[u8; 64] {
+        bytemuck_line(&node.planes)
+    }
+}
+
+impl<P> WideTree<P> for QuantizedBvh<P> {
+    type Node = QuantizedNode;
+    #[inline(always)]
+    fn root(&self) -> u32 {
+        self.root
+    }
+    #[inline(always)]
+    fn node(&self, index: u32) -> &QuantizedNode {
+        &self.nodes[index as usize]
+    }
+    #[inline(always)]
+    fn primitives(&self) -> &[P] {
+        &self.primitives
+    }
+    #[inline(always)]
+    fn test<S: Isa>(node: &QuantizedNode, ray: &RayQuery, t_max: f32) -> ([f32; WIDTH], u32) {
+        children::<S>(&node.decoded_planes(), ray, t_max)
+    }
+    #[inline(always)]
+    fn child(node: &QuantizedNode, lane: usize) -> u32 {
+        node.child(lane)
+    }
+    #[inline(always)]
+    fn occupied(node: &QuantizedNode) -> u32 {
+        node.occupied()
+    }
+    #[inline(always)]
+    fn node_start(node: &QuantizedNode) -> &[u8; 64] {
+        bytemuck_line(node)
+    }
+}
+
+/// The first 64 bytes of `value` (at least that large), for a prefetch.
+#[inline(always)]
+fn bytemuck_line<T>(value: &T) -> &[u8; 64] {
+    const { assert!(std::mem::size_of::<T>() >= 64) };
+    // SAFETY: `T` is at least 64 bytes, and u8 has no alignment or validity needs.
+    unsafe { &*(value as *const T).cast::<[u8; 64]>() }
 }
 
 /// Insert `entry` among the first `n` entries of `sorted`, kept in decreasing order of
@@ -115,21 +212,21 @@ pub(crate) fn insert_nearest_last<T: Copy>(
 /// subtree's instead of following them: a single ray's traversal is otherwise a chain
 /// of dependent loads. Only a hint: it changes speed, never results.
 #[inline(always)]
-fn prefetch_child<P>(bvh: &Bvh<P>, reference: u32) {
+fn prefetch_child<P, T: WideTree<P>>(tree: &T, reference: u32) {
     match Child::decode(reference) {
-        Child::Inner(i) => crate::prefetch(&bvh.nodes[i as usize].planes),
+        Child::Inner(i) => crate::prefetch(T::node_start(tree.node(i))),
         Child::Leaf { first, count } => {
-            crate::prefetch(&bvh.primitives[first as usize..(first + count) as usize])
+            crate::prefetch(&tree.primitives()[first as usize..(first + count) as usize])
         }
         Child::Empty => {}
     }
 }
 
 #[inline(always)]
-fn count_boxes<C: Counters>(node: &BvhNode, counters: &mut C) {
+fn count_boxes<P, T: WideTree<P>, C: Counters>(node: &T::Node, counters: &mut C) {
     if C::ENABLED {
         counters.node_visited();
-        counters.box_tests(node.children.iter().filter(|&&c| c != EMPTY_CHILD).count() as u32);
+        counters.box_tests(T::occupied(node));
     }
 }
 
@@ -137,31 +234,31 @@ fn count_boxes<C: Counters>(node: &BvhNode, counters: &mut C) {
 /// lowers `t_max` when it finds a closer hit, and returns whether it did. Returns
 /// whether anything was hit.
 #[inline(always)]
-pub(crate) fn closest_hit<S: Isa, P, C: Counters>(
-    bvh: &Bvh<P>,
+pub(crate) fn closest_hit<S: Isa, P, T: WideTree<P>, C: Counters>(
+    bvh: &T,
     ray: &RayQuery,
     t_max: &mut f32,
     counters: &mut C,
     mut leaf: impl FnMut(&[P], &mut f32, &mut C) -> bool,
 ) -> bool {
     let mut stack = Stack::<(u32, f32)>::new();
-    let mut current = bvh.root;
+    let mut current = bvh.root();
     let mut found = false;
     loop {
         match Child::decode(current) {
             Child::Inner(index) => {
-                let node = &bvh.nodes[index as usize];
-                count_boxes(node, counters);
-                let (near, mut mask) = children::<S>(node, ray, *t_max);
+                let node = bvh.node(index);
+                count_boxes::<P, T, C>(node, counters);
+                let (near, mut mask) = T::test::<S>(node, ray, *t_max);
                 if mask != 0 {
                     // One child hit (the common case for incoherent rays): go on.
                     let lane = mask.trailing_zeros() as usize;
                     if mask & (mask - 1) == 0 {
-                        current = node.children[lane];
+                        current = T::child(node, lane);
                         continue;
                     }
                     // Hit children sorted by entry distance, nearest last.
-                    let mut hits = [(node.children[lane], near[lane]); WIDTH];
+                    let mut hits = [(T::child(node, lane), near[lane]); WIDTH];
                     let mut n = 1;
                     mask &= mask - 1;
                     while mask != 0 {
@@ -170,7 +267,7 @@ pub(crate) fn closest_hit<S: Isa, P, C: Counters>(
                         insert_nearest_last(
                             &mut hits,
                             &mut n,
-                            (node.children[lane], near[lane]),
+                            (T::child(node, lane), near[lane]),
                             |e| e.1,
                         );
                     }
@@ -183,7 +280,7 @@ pub(crate) fn closest_hit<S: Isa, P, C: Counters>(
                 }
             }
             Child::Leaf { first, count } => {
-                let primitives = &bvh.primitives[first as usize..(first + count) as usize];
+                let primitives = &bvh.primitives()[first as usize..(first + count) as usize];
                 found |= leaf(primitives, t_max, counters);
             }
             Child::Empty => {}
@@ -204,33 +301,33 @@ pub(crate) fn closest_hit<S: Isa, P, C: Counters>(
 /// Any-hit traversal: stops at the first leaf hit. `leaf(primitives, t_max, counters)`
 /// returns whether a primitive blocks the ray.
 #[inline(always)]
-pub(crate) fn any_hit<S: Isa, P, C: Counters>(
-    bvh: &Bvh<P>,
+pub(crate) fn any_hit<S: Isa, P, T: WideTree<P>, C: Counters>(
+    bvh: &T,
     ray: &RayQuery,
     t_max: f32,
     counters: &mut C,
     mut leaf: impl FnMut(&[P], f32, &mut C) -> bool,
 ) -> bool {
     let mut stack = Stack::<u32>::new();
-    let mut current = bvh.root;
+    let mut current = bvh.root();
     loop {
         match Child::decode(current) {
             Child::Inner(index) => {
-                let node = &bvh.nodes[index as usize];
-                count_boxes(node, counters);
-                let (_, mut mask) = children::<S>(node, ray, t_max);
+                let node = bvh.node(index);
+                count_boxes::<P, T, C>(node, counters);
+                let (_, mut mask) = T::test::<S>(node, ray, t_max);
                 if mask != 0 {
-                    current = node.children[mask.trailing_zeros() as usize];
+                    current = T::child(node, mask.trailing_zeros() as usize);
                     mask &= mask - 1;
                     while mask != 0 {
-                        stack.push(node.children[mask.trailing_zeros() as usize]);
+                        stack.push(T::child(node, mask.trailing_zeros() as usize));
                         mask &= mask - 1;
                     }
                     continue;
                 }
             }
             Child::Leaf { first, count } => {
-                let primitives = &bvh.primitives[first as usize..(first + count) as usize];
+                let primitives = &bvh.primitives()[first as usize..(first + count) as usize];
                 if leaf(primitives, t_max, counters) {
                     return true;
                 }

@@ -1,7 +1,7 @@
 //! The node test in AVX registers: [`super::portable_children`]'s operations in single
 //! 256-bit instructions, the same results bit for bit.
 
-use super::{BvhNode, RayQuery, WIDTH};
+use super::{RayQuery, WIDTH};
 
 /// The node test with AVX: the same operations as [`super::portable_children`] in single
 /// 256-bit instructions.
@@ -14,12 +14,11 @@ use super::{BvhNode, RayQuery, WIDTH};
 /// Only call it from code compiled with AVX, on a CPU that has it.
 #[inline(always)]
 pub(super) unsafe fn avx_children(
-    node: &BvhNode,
+    p: &[[f32; WIDTH]; 6],
     ray: &RayQuery,
     t_max: f32,
 ) -> ([f32; WIDTH], u32) {
     use std::arch::x86_64::*;
-    let p = &node.planes;
     let ([nx, ny, nz], [fx, fy, fz]) = (ray.near_plane, ray.far_plane);
     let o = ray.origin;
     let (i, f) = (ray.inverse_direction, ray.inverse_direction_far);
