@@ -64,6 +64,13 @@ fn step(exponent: i8) -> f32 {
     f32::from_bits(((exponent as i32 + 127) as u32) << 23)
 }
 
+/// The plane `q` steps of `s` above `origin`, exactly as the traversal decodes it (the
+/// builder checks its rounding against this very function).
+#[inline(always)]
+fn dequantize(origin: f32, q: u8, s: f32) -> f32 {
+    origin + q as f32 * s
+}
+
 impl QuantizedNode {
     /// The planes in f32, laid out as [`BvhNode::planes`].
     #[inline(always)]
@@ -72,7 +79,7 @@ impl QuantizedNode {
         for (k, out) in planes.iter_mut().enumerate() {
             let (origin, s) = (self.origin[k % 3], step(self.exponent[k % 3]));
             for (plane, &q) in out.iter_mut().zip(&self.planes[k]) {
-                *plane = origin + q as f32 * s;
+                *plane = dequantize(origin, q, s);
             }
         }
         planes
@@ -123,7 +130,7 @@ fn grid_exponent(origin: f32, max: f32) -> i8 {
     } else {
         -126
     };
-    while e < 120 && origin + 255.0 * step(e as i8) < max {
+    while e < 120 && dequantize(origin, 255, step(e as i8)) < max {
         e += 1;
     }
     e as i8
@@ -131,7 +138,7 @@ fn grid_exponent(origin: f32, max: f32) -> i8 {
 
 /// Quantize `[lo, hi]` outward on the grid `origin + q · s`.
 fn quantize(lo: f32, hi: f32, origin: f32, s: f32) -> (u8, u8) {
-    let decode = |q: i32| origin + q as f32 * s;
+    let decode = |q: i32| dequantize(origin, q as u8, s);
     let mut q_lo = (((lo - origin) / s).floor() as i32).clamp(0, 255);
     while q_lo > 0 && decode(q_lo) > lo {
         q_lo -= 1;

@@ -48,8 +48,6 @@ pub struct PackedStrips {
     back: Vec<u8>,
     turns: Vec<u32>,
     lengths: Vec<u8>,
-    /// Each strip's starting cursor (build-time only; not counted in [`Self::bytes`]).
-    starts: Vec<Cursor>,
 }
 
 /// Why strips cannot be packed.
@@ -77,16 +75,16 @@ pub enum PackError {
 
 impl PackedStrips {
     /// Pack `strips`, whose vertices must be numbered in the order the strips first
-    /// use them.
-    pub fn pack(strips: &Strips) -> Result<Self, PackError> {
+    /// use them. Returns the stream and each strip's starting cursor.
+    pub fn pack(strips: &Strips) -> Result<(Self, Vec<Cursor>), PackError> {
         let slots = strips.indices.len();
         let mut out = Self {
             fresh: vec![0; slots.div_ceil(32)],
             back: Vec::with_capacity(slots),
             turns: strips.turns.clone(),
             lengths: Vec::with_capacity(strips.len()),
-            starts: Vec::with_capacity(strips.len()),
         };
+        let mut starts = Vec::with_capacity(strips.len());
         let mut next_fresh = 0u32;
         for s in 0..strips.len() {
             let range = strips.triangles_of(s);
@@ -95,7 +93,7 @@ impl PackedStrips {
                 length: range.len(),
             })?;
             out.lengths.push(length);
-            out.starts.push(Cursor {
+            starts.push(Cursor {
                 triangle: range.start as u32,
                 back: out.back.len() as u32,
                 next_fresh,
@@ -126,12 +124,7 @@ impl PackedStrips {
         }
         // The spare byte the decoder reads past the last distance.
         out.back.push(0);
-        Ok(out)
-    }
-
-    /// Strip `s`'s starting cursor.
-    pub fn start(&self, s: usize) -> Cursor {
-        self.starts[s]
+        Ok((out, starts))
     }
 
     /// Triangles of strip `s`.
@@ -146,7 +139,7 @@ impl PackedStrips {
     }
 
     /// Call `f(k, [p, q, r])` for each triangle of strip `s`, whose cursor is
-    /// `cursor` ([`Self::start`]), as [`Strips::for_each_triangle`] does.
+    /// `cursor` (as [`Self::pack`] returned it), as [`Strips::for_each_triangle`] does.
     #[inline(always)]
     pub fn for_each_triangle(&self, s: usize, cursor: &Cursor, mut f: impl FnMut(usize, [u32; 3])) {
         let length = self.length(s);
@@ -205,14 +198,14 @@ mod tests {
             strip_start: vec![0, 2, 3],
             triangle_source: vec![10, 11, 12],
         };
-        let packed = PackedStrips::pack(&strips).unwrap();
+        let (packed, starts) = PackedStrips::pack(&strips).unwrap();
         // Slots 0..4 fresh (0, 1, 2, 3), 4 and 5 reuses, 6 fresh (4).
         assert_eq!(packed.fresh, vec![0b100_1111]);
         assert_eq!(packed.back, vec![1, 3, 0]);
         assert_eq!(packed.lengths, vec![2, 1]);
         let mut decoded = Vec::new();
-        for s in 0..strips.len() {
-            packed.for_each_triangle(s, &packed.start(s), |k, t| decoded.push((k, t)));
+        for (s, start) in starts.iter().enumerate() {
+            packed.for_each_triangle(s, start, |k, t| decoded.push((k, t)));
         }
         let mut expected = Vec::new();
         for s in 0..strips.len() {
@@ -225,10 +218,10 @@ mod tests {
         strips.strip_start = vec![0, 148, 296, 297];
         strips.turns = vec![0; 10];
         strips.triangle_source = (0..297).collect();
-        let packed = PackedStrips::pack(&strips).unwrap();
+        let (packed, starts) = PackedStrips::pack(&strips).unwrap();
         assert_eq!(packed.back, vec![1, 2, 0, 44, 1, 0, 0, 0]);
         let mut last = Vec::new();
-        packed.for_each_triangle(2, &packed.start(2), |_, t| last.push(t));
+        packed.for_each_triangle(2, &starts[2], |_, t| last.push(t));
         assert_eq!(last, vec![[299, 298, 0]]);
     }
 

@@ -250,10 +250,10 @@ impl StripAccel {
             .map(|&v| positions[v as usize])
             .collect();
         let blocks = (inside == Inside::Quantized).then(|| BlockBoxes::build(&strips, &reordered));
-        let packed =
+        let (packed, starts) =
             PackedStrips::pack(&strips).expect("vertices numbered by first use, strips of ≤ 64");
         let bvh = QuantizedBvh {
-            primitives: (0..strips.len()).map(|s| packed.start(s)).collect(),
+            primitives: starts,
             nodes: quantized.nodes,
             root: quantized.root,
         };

@@ -113,8 +113,8 @@ pub(crate) trait WideTree<P> {
     fn child(node: &Self::Node, lane: usize) -> u32;
     /// Children the node holds (its box tests).
     fn occupied(node: &Self::Node) -> u32;
-    /// Where a node's test starts reading, for a prefetch.
-    fn node_start(node: &Self::Node) -> &[u8; 64];
+    /// Ask the memory system for what the node's test reads.
+    fn prefetch_node(node: &Self::Node);
 }
 
 impl<P> WideTree<P> for Bvh<P> {
@@ -144,8 +144,8 @@ impl<P> WideTree<P> for Bvh<P> {
         node.children.iter().filter(|&&c| c != EMPTY_CHILD).count() as u32
     }
     #[inline(always)]
-    fn node_start(node: &BvhNode) -> &[u8; 64] {
-        bytemuck_line(&node.planes)
+    fn prefetch_node(node: &BvhNode) {
+        crate::prefetch(&node.planes)
     }
 }
 
@@ -176,17 +176,9 @@ impl<P> WideTree<P> for QuantizedBvh<P> {
         node.occupied()
     }
     #[inline(always)]
-    fn node_start(node: &QuantizedNode) -> &[u8; 64] {
-        bytemuck_line(node)
+    fn prefetch_node(node: &QuantizedNode) {
+        crate::prefetch(node)
     }
-}
-
-/// The first 64 bytes of `value` (at least that large), for a prefetch.
-#[inline(always)]
-fn bytemuck_line<T>(value: &T) -> &[u8; 64] {
-    const { assert!(std::mem::size_of::<T>() >= 64) };
-    // SAFETY: `T` is at least 64 bytes, and u8 has no alignment or validity needs.
-    unsafe { &*(value as *const T).cast::<[u8; 64]>() }
 }
 
 /// Insert `entry` among the first `n` entries of `sorted`, kept in decreasing order of
@@ -214,7 +206,7 @@ pub(crate) fn insert_nearest_last<T: Copy>(
 #[inline(always)]
 fn prefetch_child<P, T: WideTree<P>>(tree: &T, reference: u32) {
     match Child::decode(reference) {
-        Child::Inner(i) => crate::prefetch(T::node_start(tree.node(i))),
+        Child::Inner(i) => T::prefetch_node(tree.node(i)),
         Child::Leaf { first, count } => {
             crate::prefetch(&tree.primitives()[first as usize..(first + count) as usize])
         }
