@@ -44,7 +44,7 @@ pub mod sah;
 #[cfg(test)]
 mod tests;
 
-use crate::mesh::{names_a_vertex_twice, EdgeAdjacency, TriMesh, NO_EDGE};
+use crate::mesh::{names_a_vertex_twice, HalfEdgeRuns, TriMesh};
 use serde::Serialize;
 
 /// No neighbour across a side (boundary, non-manifold, or opposite winding).
@@ -309,37 +309,20 @@ impl StripReport {
 /// [`NONE`] elsewhere.
 pub(crate) fn strip_neighbours(mesh: &TriMesh) -> Vec<[(u32, u8); 3]> {
     let topology = mesh.indices_within_groups();
-    let adjacency = EdgeAdjacency::build(&topology);
-    let tris = &topology.triangles;
-    (0..tris.len())
-        .map(|t| {
-            std::array::from_fn(|side| {
-                let e = adjacency.triangle_edges[t][side];
-                if e == NO_EDGE || adjacency.valence(e) != 2 {
-                    return (NONE, 0);
-                }
-                let around = adjacency.triangles_of(e);
-                let other = if around[0] as usize == t {
-                    around[1]
-                } else {
-                    around[0]
-                };
-                let Some(other_side) =
-                    (0..3).find(|&k| adjacency.triangle_edges[other as usize][k] == e)
-                else {
-                    return (NONE, 0);
-                };
-                let (a, b) = (tris[t][side], tris[t][(side + 1) % 3]);
-                let o = tris[other as usize];
-                let reversed = o[other_side] == b && o[(other_side + 1) % 3] == a;
-                if other as usize == t || !reversed {
-                    (NONE, 0)
-                } else {
-                    (other, other_side as u8)
-                }
-            })
-        })
-        .collect()
+    let triangles = &topology.triangles;
+    let mut neighbours = vec![[(NONE, 0u8); 3]; triangles.len()];
+    HalfEdgeRuns::build(&topology).for_each_edge(|_, _, half_edges| {
+        let &[(_, h), (_, g)] = half_edges else {
+            return;
+        };
+        let (t, side) = (h as usize / 3, h as usize % 3);
+        let (u, other_side) = (g as usize / 3, g as usize % 3);
+        if t != u && triangles[t][side] == triangles[u][(other_side + 1) % 3] {
+            neighbours[t][side] = (u as u32, other_side as u8);
+            neighbours[u][other_side] = (t as u32, side as u8);
+        }
+    });
+    neighbours
 }
 
 /// Builds [`Strips`] from triangle sequences of a mesh.

@@ -26,9 +26,14 @@
 //!    BVH's leaves reach their first triangle, so that neighbouring strips are near in
 //!    memory.
 //!
-//! Cost: O(T log T) for the partition; each ordering round is O(active) with a sort of
-//! the candidate merges, and relabelling the shorter sequence of each merge costs
-//! O(T log L) in all; the rounds number about log₂ L plus a tail.
+//! The ordering runs on the triangles renumbered in the BVH's leaf order, so that
+//! neighbours are near in memory; names each node by its path from the root, so that a
+//! lowest common ancestor is a common prefix; and keeps, per triangle, the sequence it
+//! is an end of, so that a merge touches four entries and relabels nothing.
+//!
+//! Cost: O(T log T) for the partition (0.8 µs a triangle, three quarters of the whole
+//! on the dragon); each ordering round is O(active) with a sort of the candidate
+//! merges, and the rounds number about log₂ L plus a tail (9 on the dragon).
 
 use super::{strip_neighbours, Encoder, Strips, NONE};
 use crate::bvh::{BuildSettings, Bvh, Child};
@@ -49,12 +54,57 @@ impl Default for StripSettings {
     }
 }
 
-/// The partition: a node per triangle, and each node's parent and depth.
+/// Levels below the root that a [`Node`]'s path holds.
+const PATH_LEVELS: u32 = 21;
+
+/// A node of the partition, named by its path from the root: the child slot (0..8) it
+/// takes at each level, three bits a level from the top bit down, and its depth (the
+/// root's is 1). The partition's nodes are 8-wide, so the lowest common ancestor of
+/// two nodes is their paths' common prefix, found without walking the tree (walking
+/// parent links took a third of the ordering's time). Nodes deeper than
+/// [`PATH_LEVELS`] (the median splits past binary depth 64 could make them; the
+/// partitions of the scans, Sponza and the Conference room are 7–16 deep) count as
+/// their ancestor at that depth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Node {
+    path: u64,
+    depth: u32,
+}
+
+impl Node {
+    const ROOT: Node = Node { path: 0, depth: 1 };
+
+    /// Its child in `slot` (0..8).
+    fn child(self, slot: usize) -> Node {
+        let level = self.depth - 1;
+        if level >= PATH_LEVELS {
+            return self;
+        }
+        Node {
+            path: self.path | (slot as u64) << (61 - 3 * level),
+            depth: self.depth + 1,
+        }
+    }
+
+    /// The lowest common ancestor of `self` and `other`, and the path length between
+    /// them.
+    #[inline(always)]
+    fn meet(self, other: Node) -> (Node, u32) {
+        let shared =
+            ((self.path ^ other.path).leading_zeros() / 3).min(self.depth.min(other.depth) - 1);
+        let ancestor = Node {
+            path: self.path & !(u64::MAX >> (3 * shared)),
+            depth: shared + 1,
+        };
+        (ancestor, self.depth + other.depth - 2 * ancestor.depth)
+    }
+}
+
+/// The partition: the node each triangle hangs from.
 struct Partition {
-    node_of: Vec<u32>,
-    parent: Vec<u32>,
-    depth: Vec<u32>,
-    /// Input triangle ids in the BVH's leaf order.
+    node_of: Vec<Node>,
+    /// Input triangle ids in the hierarchy's leaf order (those with a non-finite
+    /// centroid left out).
     leaf_order: Vec<u32>,
 }
 
@@ -68,62 +118,28 @@ impl Partition {
             ..BuildSettings::quality()
         };
         let bvh = Bvh::build(triangles, &settings);
-        // Node 0 stands for the root even when the root is a leaf or empty; triangles
-        // the BVH left out (non-finite) hang from it.
-        let nodes = bvh.nodes.len().max(1);
-        let mut node_of = vec![0u32; mesh.triangle_count()];
-        let mut parent = vec![NONE; nodes];
-        let mut depth = vec![1u32; nodes];
-        let mut assign =
-            |reference: u32, node: u32, parent: &mut [u32], depth: &mut [u32]| match Child::decode(
-                reference,
-            ) {
-                Child::Inner(i) => {
-                    parent[i as usize] = node;
-                    depth[i as usize] = depth[node as usize] + 1;
-                }
-                Child::Leaf { first, count } => {
-                    for p in first..first + count {
-                        node_of[bvh.primitives[p as usize].id as usize] = node;
+        // The root stands for itself when it is a leaf; triangles the BVH left out
+        // (non-finite) hang from it.
+        let mut node_of = vec![Node::ROOT; mesh.triangle_count()];
+        let mut nodes = vec![Node::ROOT; bvh.nodes.len()];
+        // Parents come before children in `nodes`.
+        for (i, node) in bvh.nodes.iter().enumerate() {
+            for (slot, &child) in node.children.iter().enumerate() {
+                match Child::decode(child) {
+                    Child::Inner(j) => nodes[j as usize] = nodes[i].child(slot),
+                    Child::Leaf { first, count } => {
+                        for p in first..first + count {
+                            node_of[bvh.primitives[p as usize].id as usize] = nodes[i];
+                        }
                     }
-                }
-                Child::Empty => {}
-            };
-        if bvh.nodes.is_empty() {
-            assign(bvh.root, 0, &mut parent, &mut depth);
-        } else {
-            // Parents come before children in `nodes`.
-            for (i, node) in bvh.nodes.iter().enumerate() {
-                for &child in &node.children {
-                    assign(child, i as u32, &mut parent, &mut depth);
+                    Child::Empty => {}
                 }
             }
         }
         Self {
             node_of,
-            parent,
-            depth,
             leaf_order: bvh.primitives.iter().map(|t| t.id).collect(),
         }
-    }
-
-    /// Lowest common ancestor and the path length between `a` and `b`.
-    fn meet(&self, mut a: u32, mut b: u32) -> (u32, u32) {
-        let mut distance = 0;
-        while self.depth[a as usize] > self.depth[b as usize] {
-            a = self.parent[a as usize];
-            distance += 1;
-        }
-        while self.depth[b as usize] > self.depth[a as usize] {
-            b = self.parent[b as usize];
-            distance += 1;
-        }
-        while a != b {
-            a = self.parent[a as usize];
-            b = self.parent[b as usize];
-            distance += 2;
-        }
-        (a, distance)
     }
 }
 
@@ -132,8 +148,7 @@ impl Partition {
 struct Sequence {
     ends: [u32; 2],
     length: u32,
-    node: u32,
-    active: bool,
+    node: Node,
 }
 
 /// A possible merge: end `x` of sequence `a` with end `y` of sequence `b` across side
@@ -152,23 +167,52 @@ struct Merge {
 /// Strip-RT over `mesh`'s triangles (by vertex index: weld first to share vertices).
 pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
     let n = mesh.triangle_count();
-    let neighbours = strip_neighbours(mesh);
-    let partition = Partition::build(mesh);
+    let input_neighbours = strip_neighbours(mesh);
+    let Partition {
+        node_of,
+        leaf_order: mut order,
+    } = Partition::build(mesh);
     let max_length = settings.max_length.max(1) as u32;
 
-    // Per triangle: its sequence, and up to two links (neighbour, own side).
-    let mut sequence_of: Vec<u32> = (0..n as u32).collect();
+    // The ordering works on triangles renumbered in the hierarchy's leaf order (those
+    // left out of it last), so that neighbours are near in every array it reads.
+    let mut local = vec![NONE; n];
+    for (i, &t) in order.iter().enumerate() {
+        local[t as usize] = i as u32;
+    }
+    for (t, place) in local.iter_mut().enumerate() {
+        if *place == NONE {
+            *place = order.len() as u32;
+            order.push(t as u32);
+        }
+    }
+    // Each side's neighbour and the side it is on there, packed as `4·y + side` (the
+    // partition's BVH holds fewer than 2^27 triangles).
+    let neighbours: Vec<[u32; 3]> = order
+        .iter()
+        .map(|&t| {
+            input_neighbours[t as usize].map(|(o, side)| match o {
+                NONE => NONE,
+                o => local[o as usize] << 2 | side as u32,
+            })
+        })
+        .collect();
+    drop(input_neighbours);
+
+    // Per triangle: up to two links (neighbour, own side), and the sequence it is an
+    // end of while that sequence can still merge (NONE otherwise). A sequence's id is
+    // one of its triangles'; a merge keeps the first sequence's.
     let mut links = vec![[(NONE, 0u8); 2]; n];
+    let mut end_of: Vec<u32> = (0..n as u32).collect();
     let mut sequences: Vec<Sequence> = (0..n)
         .map(|t| Sequence {
             ends: [t as u32; 2],
             length: 1,
-            node: partition.node_of[t],
-            active: true,
+            node: node_of[order[t] as usize],
         })
         .collect();
     let mut active: Vec<u32> = (0..n as u32)
-        .filter(|&t| neighbours[t as usize].iter().any(|&(o, _)| o != NONE))
+        .filter(|&t| neighbours[t as usize].iter().any(|&o| o != NONE))
         .collect();
     let mut merges: Vec<Merge> = Vec::with_capacity(active.len());
     let mut merged_this_round = vec![false; n];
@@ -184,25 +228,24 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
                 &sa.ends
             };
             for &x in ends {
-                let link = links[x as usize];
-                for (side_x, &(y, side_y)) in neighbours[x as usize].iter().enumerate() {
-                    if y == NONE || link.iter().any(|l| l.0 == y && l.1 == side_x as u8) {
+                for (side_x, &packed) in neighbours[x as usize].iter().enumerate() {
+                    // Across an edge there is one neighbour, so a side of an end that
+                    // is linked is linked within its own sequence: `b == a` covers it.
+                    if packed == NONE {
                         continue;
                     }
-                    let b = sequence_of[y as usize];
+                    let y = packed >> 2;
+                    let b = end_of[y as usize];
+                    if b == NONE || b == a {
+                        continue;
+                    }
                     let sb = sequences[b as usize];
-                    if b == a
-                        || !sb.active
-                        || sa.length + sb.length > max_length
-                        || (sb.ends[0] != y && sb.ends[1] != y)
-                    {
+                    if sa.length + sb.length > max_length {
                         continue;
                     }
-                    let (_, distance) = partition.meet(sa.node, sb.node);
-                    let depths =
-                        partition.depth[sa.node as usize] + partition.depth[sb.node as usize];
+                    let distance = sa.node.meet(sb.node).1;
                     let (la, lb) = (sa.length as f32, sb.length as f32);
-                    let score = 1.0 - distance as f32 / depths as f32
+                    let score = 1.0 - distance as f32 / (sa.node.depth + sb.node.depth) as f32
                         + 4.0 * la * lb / ((la + lb) * (la + lb));
                     if best.is_none_or(|m| score > m.score) {
                         best = Some(Merge {
@@ -212,7 +255,7 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
                             x,
                             y,
                             side_x: side_x as u8,
-                            side_y,
+                            side_y: (packed & 3) as u8,
                         });
                     }
                 }
@@ -223,7 +266,9 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
                     true
                 }
                 None => {
-                    sequences[a as usize].active = false;
+                    // Its neighbours only grow, so it never can again.
+                    end_of[sa.ends[0] as usize] = NONE;
+                    end_of[sa.ends[1] as usize] = NONE;
                     false
                 }
             }
@@ -234,15 +279,6 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
                 continue;
             }
             let (sa, sb) = (sequences[m.a as usize], sequences[m.b as usize]);
-            // Keep the longer sequence's id; relabel the shorter one's triangles.
-            let (keep, gone, gone_end) = if sa.length >= sb.length {
-                (m.a, m.b, m.y)
-            } else {
-                (m.b, m.a, m.x)
-            };
-            for (t, _) in walk(&links, gone_end) {
-                sequence_of[t as usize] = keep;
-            }
             link(&mut links, m.x, m.y, m.side_x);
             link(&mut links, m.y, m.x, m.side_y);
             let other_end = |s: Sequence, end: u32| {
@@ -252,18 +288,21 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
                     s.ends[0]
                 }
             };
-            let (node, _) = partition.meet(sa.node, sb.node);
-            sequences[keep as usize] = Sequence {
-                ends: [other_end(sa, m.x), other_end(sb, m.y)],
+            let ends = [other_end(sa, m.x), other_end(sb, m.y)];
+            end_of[m.x as usize] = NONE;
+            end_of[m.y as usize] = NONE;
+            end_of[ends[0] as usize] = m.a;
+            end_of[ends[1] as usize] = m.a;
+            sequences[m.a as usize] = Sequence {
+                ends,
                 length: sa.length + sb.length,
-                node,
-                active: true,
+                node: sa.node.meet(sb.node).0,
             };
-            sequences[gone as usize].active = false;
-            merged_this_round[keep as usize] = true;
-            merged_this_round[gone as usize] = true;
+            merged_this_round[m.a as usize] = true;
+            merged_this_round[m.b as usize] = true;
         }
-        active.retain(|&a| sequences[a as usize].active);
+        // Merged-away sequences no longer own their ends.
+        active.retain(|&a| end_of[sequences[a as usize].ends[0] as usize] == a);
         for m in &merges {
             merged_this_round[m.a as usize] = false;
             merged_this_round[m.b as usize] = false;
@@ -273,24 +312,18 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
     // Output in leaf order, each sequence walked from one end.
     let mut encoder = Encoder::new(&mesh.triangles);
     let mut emitted = vec![false; n];
-    let mut order = partition.leaf_order;
-    let mut in_bvh = vec![false; n];
-    for &t in &order {
-        in_bvh[t as usize] = true;
-    }
-    order.extend((0..n as u32).filter(|&t| !in_bvh[t as usize]));
     let mut sequence = Vec::with_capacity(max_length as usize);
     let mut exits = Vec::with_capacity(max_length as usize);
-    for t in order {
-        let s = sequence_of[t as usize];
-        if emitted[s as usize] {
+    for t in 0..n as u32 {
+        if emitted[t as usize] {
             continue;
         }
-        emitted[s as usize] = true;
         sequence.clear();
         exits.clear();
-        for (t, exit) in walk(&links, sequences[s as usize].ends[0]) {
-            sequence.push(t);
+        let end = walk(&links, t).last().map_or(t, |(end, _)| end);
+        for (t, exit) in walk(&links, end) {
+            emitted[t as usize] = true;
+            sequence.push(order[t as usize]);
             exits.extend(exit);
         }
         encoder.push(&sequence, &exits);
@@ -323,4 +356,36 @@ fn walk(links: &[[(u32, u8); 2]], end: u32) -> impl Iterator<Item = (u32, Option
         current = next.map_or(NONE, |l| l.0);
         Some((here, next.map(|l| l.1)))
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Node;
+
+    #[test]
+    fn nodes_meet_at_their_common_prefix() {
+        let root = Node::ROOT;
+        let (a, b) = (root.child(3), root.child(5));
+        let (a1, a2) = (a.child(0), a.child(7));
+        let a1x = a1.child(2).child(6);
+        assert_eq!(a1.meet(a2), (a, 2));
+        assert_eq!(a1x.meet(a2), (a, 4));
+        assert_eq!(a1x.meet(b), (root, 5));
+        assert_eq!(a1x.meet(a1), (a1, 2));
+        assert_eq!(a1.meet(a1), (a1, 0));
+        assert_eq!(root.meet(a1x), (root, 4));
+        // Slot 0 children differ from their parent by depth alone.
+        assert_eq!(a.child(0).child(0).meet(a), (a, 2));
+    }
+
+    #[test]
+    fn nodes_past_the_path_length_count_as_their_ancestor() {
+        let mut deep = Node::ROOT;
+        for level in 0..30 {
+            deep = deep.child(level % 8);
+        }
+        assert_eq!(deep.depth, super::PATH_LEVELS + 1);
+        assert_eq!(deep.child(4), deep);
+        assert_eq!(deep.meet(deep.child(1)), (deep, 0));
+    }
 }
