@@ -87,7 +87,10 @@ pub fn contract(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
     }
     let weigh = |live: &[Option<Live>], a: u32, b: u32, marks: &mut Marks| {
         let (ka, kb) = (live[a as usize].as_ref()?, live[b as usize].as_ref()?);
-        let acc = acceptance(mesh, ka.set.summary(), kb.set.summary(), &scale, marks)?;
+        marks.mark(&ka.set.vertices);
+        let acc = acceptance(ka.set.summary(), kb.set.summary(), &scale, |v| {
+            marks.is_marked(v)
+        })?;
         let (lo, hi) = if a < b {
             ((a, ka), (b, kb))
         } else {

@@ -306,6 +306,8 @@ pub fn disconnected(mesh: &TriMesh, clusters: &Clusters) -> usize {
 #[derive(Clone, Copy)]
 pub(crate) struct Summary<'a> {
     pub vertices: &'a [u32],
+    /// The vertices' positions, in the same order (read without a gather).
+    pub points: &'a [Vec3],
     pub vertex_sum: Vec3,
     pub normals: &'a [Vec3],
     pub normal_sum: Vec3,
@@ -318,6 +320,7 @@ pub(crate) struct Summary<'a> {
 pub(crate) struct Set {
     pub triangles: Vec<u32>,
     pub vertices: Vec<u32>,
+    pub points: Vec<Vec3>,
     pub vertex_sum: Vec3,
     pub normals: Vec<Vec3>,
     pub normal_sum: Vec3,
@@ -338,6 +341,7 @@ impl Set {
         for &v in &mesh.triangles[t as usize] {
             if !self.vertices.contains(&v) {
                 self.vertices.push(v);
+                self.points.push(mesh.positions[v as usize]);
                 self.vertex_sum += mesh.positions[v as usize];
             }
         }
@@ -352,6 +356,7 @@ impl Set {
         let mut fresh = other.vertices;
         fresh.retain(|&v| !marks.is_marked(v));
         for &v in &fresh {
+            self.points.push(mesh.positions[v as usize]);
             self.vertex_sum += mesh.positions[v as usize];
         }
         self.vertices.extend(fresh);
@@ -365,6 +370,7 @@ impl Set {
     pub fn summary(&self) -> Summary<'_> {
         Summary {
             vertices: &self.vertices,
+            points: &self.points,
             vertex_sum: self.vertex_sum,
             normals: &self.normals,
             normal_sum: self.normal_sum,
@@ -397,6 +403,11 @@ impl Marks {
             self.seen.fill(0);
             self.stamp = 1;
         }
+        self.mark_also(vertices);
+    }
+
+    /// Mark `vertices` too.
+    fn mark_also(&mut self, vertices: &[u32]) {
         for &v in vertices {
             self.seen[v as usize] = self.stamp;
         }
@@ -441,54 +452,90 @@ fn normal_and_area(mesh: &TriMesh, t: usize) -> (Vec3, f32) {
     }
 }
 
+/// What Acc(a ∪ b) needs besides the two reductions over the sets' points and normals
+/// ([`farthest`], [`widest`]): the union's counts, centre, mean normal and disk.
+pub(crate) struct Union {
+    triangle_count: usize,
+    vertex_count: usize,
+    pub centre: Vec3,
+    pub mean: Vec3,
+    disk: f32,
+}
+
+impl Union {
+    /// The union of disjoint sets `a` and `b`, or `None` past a hard limit (MaxCount
+    /// triangles, the vertex limit); `in_a` tells a vertex of `a`.
+    pub fn of(
+        a: Summary,
+        b: Summary,
+        scale: &AcceptanceScale,
+        in_a: impl Fn(u32) -> bool,
+    ) -> Option<Self> {
+        let settings = scale.settings;
+        let triangle_count = a.triangles + b.triangles;
+        if triangle_count > settings.max_triangles {
+            return None;
+        }
+        let mut vertex_count = a.vertices.len();
+        let mut vertex_sum = a.vertex_sum;
+        for (&v, &p) in b.vertices.iter().zip(b.points) {
+            if !in_a(v) {
+                vertex_count += 1;
+                vertex_sum += p;
+            }
+        }
+        if vertex_count > settings.max_vertices {
+            return None;
+        }
+        // The disk of k's own area, or of its expected area where its triangles are
+        // smaller than the mesh's average (a sliver strip must not pass as compact).
+        let expected = (a.area + b.area).max(scale.average_area * triangle_count as f32 * 0.25);
+        Some(Self {
+            triangle_count,
+            vertex_count,
+            centre: vertex_sum / vertex_count as f32,
+            mean: (a.normal_sum + b.normal_sum).normalize_or_zero(),
+            disk: settings.max_size * (expected / std::f32::consts::PI).sqrt(),
+        })
+    }
+
+    /// Acc of the union, given the largest squared distance of its points from
+    /// `centre` and the smallest cosine of its normals to `mean`.
+    pub fn acceptance(&self, farthest_squared: f32, widest: f32, scale: &AcceptanceScale) -> f32 {
+        let compact = 1.0 - farthest_squared.sqrt() / self.disk.max(f32::MIN_POSITIVE);
+        let budget = 1.0 - self.vertex_count as f32 / (scale.settings.max_vertices as f32 + 1.0);
+        compact.min(widest - scale.cos_max).min(budget)
+            - 0.05 * self.vertex_count as f32 / self.triangle_count as f32
+    }
+}
+
+/// The largest squared distance of `points` from `centre` (0 for none).
+#[inline]
+pub(crate) fn farthest(points: &[Vec3], centre: Vec3) -> f32 {
+    points
+        .iter()
+        .map(|&p| (p - centre).length_squared())
+        .fold(0.0f32, f32::max)
+}
+
+/// The smallest cosine of `normals` to `mean` (1 for none).
+#[inline]
+pub(crate) fn widest(normals: &[Vec3], mean: Vec3) -> f32 {
+    normals.iter().map(|n| n.dot(mean)).fold(1.0f32, f32::min)
+}
+
 /// Acc(a ∪ b) of the module header for disjoint sets `a` and `b`, or `None` past a
-/// hard limit (MaxCount triangles, the vertex limit). `marks` is scratch.
+/// hard limit (MaxCount triangles, the vertex limit); `in_a` tells a vertex of `a`.
 pub(crate) fn acceptance(
-    mesh: &TriMesh,
     a: Summary,
     b: Summary,
     scale: &AcceptanceScale,
-    marks: &mut Marks,
+    in_a: impl Fn(u32) -> bool,
 ) -> Option<f32> {
-    let settings = scale.settings;
-    let triangle_count = a.triangles + b.triangles;
-    if triangle_count > settings.max_triangles {
-        return None;
-    }
-    let mut vertex_count = a.vertices.len();
-    let mut vertex_sum = a.vertex_sum;
-    marks.mark(a.vertices);
-    for &v in b.vertices.iter().filter(|&&v| !marks.is_marked(v)) {
-        vertex_count += 1;
-        vertex_sum += mesh.positions[v as usize];
-    }
-    if vertex_count > settings.max_vertices {
-        return None;
-    }
-    let centre = vertex_sum / vertex_count as f32;
-    let radius = a
-        .vertices
-        .iter()
-        .chain(b.vertices)
-        .map(|&v| (mesh.positions[v as usize] - centre).length_squared())
-        .fold(0.0f32, f32::max)
-        .sqrt();
-    // The disk of k's own area, or of its expected area where its triangles are
-    // smaller than the mesh's average (a sliver strip must not pass as compact).
-    let expected = (a.area + b.area).max(scale.average_area * triangle_count as f32 * 0.25);
-    let disk = settings.max_size * (expected / std::f32::consts::PI).sqrt();
-    let mean = (a.normal_sum + b.normal_sum).normalize_or_zero();
-    let cone = a
-        .normals
-        .iter()
-        .chain(b.normals)
-        .map(|n| n.dot(mean))
-        .fold(1.0f32, f32::min);
-    let compact = 1.0 - radius / disk.max(f32::MIN_POSITIVE);
-    let budget = 1.0 - vertex_count as f32 / (settings.max_vertices as f32 + 1.0);
-    let acc = compact.min(cone - scale.cos_max).min(budget)
-        - 0.05 * vertex_count as f32 / triangle_count as f32;
-    Some(acc)
+    let union = Union::of(a, b, scale, in_a)?;
+    let far = farthest(a.points, union.centre).max(farthest(b.points, union.centre));
+    let wide = widest(a.normals, union.mean).min(widest(b.normals, union.mean));
+    Some(union.acceptance(far, wide, scale))
 }
 
 /// Morton code of a point in `bounds` (10 bits per axis).
