@@ -21,7 +21,8 @@ pub enum Leaf {
     /// 4 triangle pairs per SIMD test, paired by --pair-method after welding.
     Pair,
     /// Strip-RT strips (default maximum length), traced directly: a BVH over the
-    /// strips, an implicit balanced split inside each (the scene flattened and welded).
+    /// strips, each strip's triangles tested four at a time (the scene flattened and
+    /// welded).
     Strip,
 }
 
@@ -185,7 +186,7 @@ pub fn run(args: Args) -> Result<()> {
 fn strip_accel(scene: &rtmesh::Scene) -> (AccelStats, StripAccel) {
     let mesh = rtmesh::mesh::weld_exact(&scene.flatten()).mesh;
     let strips = rtmesh::strip::sah::stripify(&mesh, &Default::default());
-    let accel = StripAccel::build(&mesh.positions, &strips, 1, Inside::Implicit)
+    let accel = StripAccel::build(&mesh.positions, &strips, 1, Inside::Flat)
         .expect("the default maximum length is within the tracer's");
     let bvh = accel.stats();
     let bytes = accel.hierarchy_bytes() + accel.topology_bytes() + accel.position_bytes();

@@ -12,7 +12,9 @@
 //! triangles from the shared vertex buffer into the tracer's 4-wide blocks on the
 //! stack. Inside a strip ([`Inside`]):
 //!
-//! - [`Inside::Flat`]: every block of the strip is tested;
+//! - [`Inside::Flat`]: every block of the strip is tested. The command line's
+//!   default: at length 32 (11–12 triangles a strip on the scans) it traces 22–30%
+//!   faster than the implicit split, whose boxes read every corner anyway;
 //! - [`Inside::Implicit`]: a range longer than 8 triangles is split at its middle
 //!   triangle, the two halves' boxes are computed from the decoded corners on the fly
 //!   and tested, nearest first. Nothing is stored for it.

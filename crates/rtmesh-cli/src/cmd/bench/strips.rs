@@ -26,9 +26,11 @@ pub struct Args {
     /// Strips per BVH leaf (1..=15).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
     strips_per_leaf: u32,
-    /// flat (test every triangle of a strip), implicit (split at the middle, boxes
-    /// computed on the fly) or quantized (a stored 8-bit box per four triangles).
-    #[arg(long, default_value = "implicit")]
+    /// flat (test every triangle of a strip, four at a time), implicit (split at the
+    /// middle, boxes computed on the fly) or quantized (a stored 8-bit box per four
+    /// triangles). Flat is the default: computing the boxes reads every corner anyway,
+    /// and measured 22–25% slower than testing them (docs/measurements/strips.md).
+    #[arg(long, default_value = "flat")]
     inside: String,
     /// Workloads, comma separated.
     #[arg(
