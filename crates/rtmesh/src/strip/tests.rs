@@ -176,7 +176,7 @@ fn rts_files_round_trip_and_refuse_damage() {
 #[test]
 fn traced_strips_hit_what_triangles_hit() {
     use crate::bvh::BuildSettings;
-    use crate::trace::run::trace_closest;
+    use crate::trace::run::{trace_closest, trace_occluded};
     use crate::trace::strip::{Inside, StripAccel};
     use crate::trace::{NoCounters, RayKind, SceneAccel, Workload};
     let mesh = scenes::scan_blob(20_000, 7);
@@ -186,9 +186,23 @@ fn traced_strips_hit_what_triangles_hit() {
     for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
         let work = Workload::generate(kind, &scene, &triangles, 64, 64, 1);
         let reference = trace_closest::<NoCounters>(&triangles, &work.rays).0;
+        let reference_occluded = trace_occluded::<NoCounters>(&triangles, &work.rays).0;
         for inside in [Inside::Flat, Inside::Implicit, Inside::Quantized] {
             let accel =
                 StripAccel::build(&mesh.positions, &strips, 2, inside).expect("short strips");
+            // Any-hit: occluded exactly where the triangles are, but for edge ties.
+            let occluded = trace_occluded::<NoCounters>(&accel, &work.rays).0;
+            let agree = occluded
+                .iter()
+                .zip(&reference_occluded)
+                .filter(|(a, b)| a == b)
+                .count();
+            assert!(
+                agree as f64 >= 0.999 * occluded.len() as f64,
+                "{kind:?} {inside:?} occlusion: {agree}/{}",
+                occluded.len()
+            );
+            assert!(occluded.iter().any(|&o| o) && occluded.iter().any(|&o| !o));
             let hits = trace_closest::<NoCounters>(&accel, &work.rays).0;
             let same = hits
                 .iter()

@@ -344,11 +344,60 @@ impl StripAccel {
     ) -> bool {
         match &self.blocks {
             Some(blocks) => self.visit_quantized(cursor, blocks, buffer, query, t_max, counters, f),
+            None if self.inside == Inside::Flat => self.visit_flat(cursor, t_max, counters, f),
             None => {
                 let triangles = self.decode(cursor, buffer);
                 self.visit(triangles, query, t_max, counters, f)
             }
         }
+    }
+
+    /// [`Inside::Flat`]: the strip at `cursor` decoded straight into blocks of four
+    /// (the corners and edges [`Triangle::new`] would compute, without the copy through
+    /// it), each tested as it fills.
+    #[inline(always)]
+    fn visit_flat<C: Counters>(
+        &self,
+        cursor: &Cursor,
+        t_max: &mut f32,
+        counters: &mut C,
+        mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
+    ) -> bool {
+        let s = self.strip_of(cursor);
+        let first = cursor.triangle as usize;
+        let mut block = Triangle4::new(&[Triangle::new([Vec3::ZERO; 3], u32::MAX)]);
+        let mut stopped = false;
+        self.strips.for_each_triangle(s, cursor, |k, t| {
+            if stopped {
+                return;
+            }
+            let lane = (k - first) % 4;
+            let [a, b, c] = t.map(|v| self.positions[v as usize]);
+            if lane == 0 {
+                // Unused lanes repeat the first corner with zero edges, as in
+                // `Triangle4::new`.
+                block.v0 = [[a.x; 4], [a.y; 4], [a.z; 4]];
+                block.e1 = [[0.0; 4]; 3];
+                block.e2 = [[0.0; 4]; 3];
+                block.ids = [u32::MAX; 4];
+            }
+            let (e1, e2) = (b - a, c - a);
+            for axis in 0..3 {
+                block.v0[axis][lane] = a[axis];
+                block.e1[axis][lane] = e1[axis];
+                block.e2[axis][lane] = e2[axis];
+            }
+            block.ids[lane] = self.triangle_source[k];
+            if lane == 3 {
+                block.count_tests(counters);
+                stopped = f(&block, t_max);
+            }
+        });
+        if !stopped && !self.strips.length(s).is_multiple_of(4) {
+            block.count_tests(counters);
+            stopped = f(&block, t_max);
+        }
+        stopped
     }
 
     /// [`Inside::Quantized`]: the blocks whose stored boxes the ray enters, decoded and
@@ -406,8 +455,8 @@ impl StripAccel {
         false
     }
 
-    /// Test triangles `range` of a decoded strip; `f` tests one block and returns
-    /// whether to stop.
+    /// [`Inside::Implicit`]: test the triangles of a decoded strip through the implicit
+    /// split; `f` tests one block and returns whether to stop.
     #[inline(always)]
     fn visit<C: Counters>(
         &self,
@@ -417,13 +466,9 @@ impl StripAccel {
         counters: &mut C,
         mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
     ) -> bool {
-        // The implicit balanced hierarchy, nearest half first; a flat strip is one
-        // range never split.
-        let split_above = match self.inside {
-            Inside::Flat => usize::MAX,
-            Inside::Implicit => 8,
-            Inside::Quantized => unreachable!("visited through its stored boxes"),
-        };
+        // The implicit balanced hierarchy, nearest half first, down to 8 triangles.
+        debug_assert_eq!(self.inside, Inside::Implicit);
+        let split_above = 8;
         let mut stack = [(0usize, 0usize, 0.0f32); 16];
         let mut len = 1;
         stack[0] = (0, triangles.len(), 0.0);
