@@ -57,6 +57,26 @@ struct Growth {
     wide: f32,
 }
 
+impl Growth {
+    /// Adding `triangle` (its one-triangle summary `t`) to `k`, or `None` past a hard
+    /// limit; `in_k` tells a vertex of `k`.
+    fn of(
+        k: &Set,
+        triangle: u32,
+        t: Summary,
+        scale: &AcceptanceScale,
+        in_k: impl Fn(u32) -> bool,
+    ) -> Option<Self> {
+        let union = Union::of(k.summary(), t, scale, in_k)?;
+        Some(Self {
+            triangle,
+            far: farthest(t.points, union.centre),
+            wide: widest(t.normals, union.mean),
+            union,
+        })
+    }
+}
+
 /// Candidates a pass over the growing set's points and normals serves at once.
 const LANES: usize = 8;
 
@@ -148,18 +168,7 @@ pub fn grow(mesh: &TriMesh, settings: &ClusterSettings) -> Clusters {
                 }
                 let mut distinct = ([0u32; 3], [Vec3::ZERO; 3]);
                 let candidate = one_triangle(mesh, u as usize, normal, *area, &mut distinct);
-                if let Some(union) =
-                    Union::of(k.summary(), candidate, &scale, |v| marks.is_marked(v))
-                {
-                    let far = farthest(candidate.points, union.centre);
-                    let wide = widest(candidate.normals, union.mean);
-                    candidates.push(Growth {
-                        triangle: u,
-                        union,
-                        far,
-                        wide,
-                    });
-                }
+                candidates.extend(Growth::of(&k, u, candidate, &scale, |v| marks.is_marked(v)));
             }
             next = best_growth(&k, &candidates, &scale);
         }
@@ -209,11 +218,7 @@ mod tests {
                         scalar = Some((acc, u));
                     }
                 }
-                if let Some(union) = Union::of(k.summary(), b, &scale, |v| marks.is_marked(v)) {
-                    let far = farthest(b.points, union.centre);
-                    let wide = widest(b.normals, union.mean);
-                    growths.push(Growth { triangle: u, union, far, wide });
-                }
+                growths.extend(Growth::of(&k, u, b, &scale, |v| marks.is_marked(v)));
             }
             prop_assert_eq!(best_growth(&k, &growths, &scale), scalar.map(|(_, u)| u));
         }

@@ -340,9 +340,10 @@ impl Set {
         self.triangles.push(t);
         for &v in &mesh.triangles[t as usize] {
             if !self.vertices.contains(&v) {
+                let p = mesh.positions[v as usize];
                 self.vertices.push(v);
-                self.points.push(mesh.positions[v as usize]);
-                self.vertex_sum += mesh.positions[v as usize];
+                self.points.push(p);
+                self.vertex_sum += p;
             }
         }
         self.normal_sum += normal * area.max(f32::MIN_POSITIVE);
@@ -356,8 +357,9 @@ impl Set {
         let mut fresh = other.vertices;
         fresh.retain(|&v| !marks.is_marked(v));
         for &v in &fresh {
-            self.points.push(mesh.positions[v as usize]);
-            self.vertex_sum += mesh.positions[v as usize];
+            let p = mesh.positions[v as usize];
+            self.points.push(p);
+            self.vertex_sum += p;
         }
         self.vertices.extend(fresh);
         self.triangles.extend(other.triangles);

@@ -103,8 +103,8 @@ impl Node {
 /// The partition: the node each triangle hangs from.
 struct Partition {
     node_of: Vec<Node>,
-    /// Input triangle ids in the hierarchy's leaf order (those with a non-finite
-    /// centroid left out).
+    /// Input triangle ids in the BVH's leaf order (those it left out, with non-finite
+    /// corners, missing).
     leaf_order: Vec<u32>,
 }
 

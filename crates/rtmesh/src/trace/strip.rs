@@ -353,8 +353,7 @@ impl StripAccel {
     }
 
     /// [`Inside::Flat`]: the strip at `cursor` decoded straight into blocks of four
-    /// (the corners and edges [`Triangle::new`] would compute, without the copy through
-    /// it), each tested as it fills.
+    /// (no buffer of the strip's triangles), each tested as it fills.
     #[inline(always)]
     fn visit_flat<C: Counters>(
         &self,
@@ -365,29 +364,23 @@ impl StripAccel {
     ) -> bool {
         let s = self.strip_of(cursor);
         let first = cursor.triangle as usize;
-        let mut block = Triangle4::new(&[Triangle::new([Vec3::ZERO; 3], u32::MAX)]);
+        // Replaced at each block's first triangle.
+        let mut block = Triangle4::of_one(&Triangle::new([Vec3::ZERO; 3], u32::MAX));
         let mut stopped = false;
         self.strips.for_each_triangle(s, cursor, |k, t| {
             if stopped {
                 return;
             }
+            let triangle = Triangle::new(
+                t.map(|v| self.positions[v as usize]),
+                self.triangle_source[k],
+            );
             let lane = (k - first) % 4;
-            let [a, b, c] = t.map(|v| self.positions[v as usize]);
             if lane == 0 {
-                // Unused lanes repeat the first corner with zero edges, as in
-                // `Triangle4::new`.
-                block.v0 = [[a.x; 4], [a.y; 4], [a.z; 4]];
-                block.e1 = [[0.0; 4]; 3];
-                block.e2 = [[0.0; 4]; 3];
-                block.ids = [u32::MAX; 4];
+                block = Triangle4::of_one(&triangle);
+            } else {
+                block.set(lane, &triangle);
             }
-            let (e1, e2) = (b - a, c - a);
-            for axis in 0..3 {
-                block.v0[axis][lane] = a[axis];
-                block.e1[axis][lane] = e1[axis];
-                block.e2[axis][lane] = e2[axis];
-            }
-            block.ids[lane] = self.triangle_source[k];
             if lane == 3 {
                 block.count_tests(counters);
                 stopped = f(&block, t_max);

@@ -115,27 +115,35 @@ impl Triangle4 {
             !triangles.is_empty() && triangles.len() <= TRIANGLE4_LANES,
             "1 to 4 triangles per block"
         );
-        let mut block = Triangle4 {
-            v0: [[0.0; 4]; 3],
-            e1: [[0.0; 4]; 3],
-            e2: [[0.0; 4]; 3],
-            ids: [u32::MAX; 4],
-        };
-        for (lane, t) in triangles.iter().enumerate() {
-            for axis in 0..3 {
-                block.v0[axis][lane] = t.v0[axis];
-                block.e1[axis][lane] = t.e1[axis];
-                block.e2[axis][lane] = t.e2[axis];
-            }
-            block.ids[lane] = t.id;
-        }
-        // Unused lanes repeat the first corner with zero edges: inside the leaf's box.
-        for lane in triangles.len()..TRIANGLE4_LANES {
-            for axis in 0..3 {
-                block.v0[axis][lane] = block.v0[axis][0];
-            }
+        let mut block = Self::of_one(&triangles[0]);
+        for (lane, t) in triangles.iter().enumerate().skip(1) {
+            block.set(lane, t);
         }
         block
+    }
+
+    /// The block of `t` alone. Unused lanes repeat its first corner with zero edges:
+    /// inside the leaf's box.
+    #[inline(always)]
+    pub fn of_one(t: &Triangle) -> Self {
+        let lane0 = |x: f32| [x, 0.0, 0.0, 0.0];
+        Triangle4 {
+            v0: [[t.v0.x; 4], [t.v0.y; 4], [t.v0.z; 4]],
+            e1: [lane0(t.e1.x), lane0(t.e1.y), lane0(t.e1.z)],
+            e2: [lane0(t.e2.x), lane0(t.e2.y), lane0(t.e2.z)],
+            ids: [t.id, u32::MAX, u32::MAX, u32::MAX],
+        }
+    }
+
+    /// Put `t` in `lane` (one [`Self::of_one`] left unused, or one to overwrite).
+    #[inline(always)]
+    pub fn set(&mut self, lane: usize, t: &Triangle) {
+        for axis in 0..3 {
+            self.v0[axis][lane] = t.v0[axis];
+            self.e1[axis][lane] = t.e1[axis];
+            self.e2[axis][lane] = t.e2[axis];
+        }
+        self.ids[lane] = t.id;
     }
 
     /// Used lanes (1..=4).
