@@ -19,7 +19,7 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("clusters");
     group.sample_size(10);
     for inside in [Inside::Node, Inside::Flat] {
-        let mut frames = ClusterFrames::new(&clusters, inside);
+        let mut frames = ClusterFrames::new(&clusters, inside, &mesh);
         group.bench_function(format!("frame/{inside:?}/{name}"), |b| {
             b.iter(|| {
                 let accel = frames.build(&frame);

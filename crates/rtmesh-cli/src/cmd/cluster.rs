@@ -22,8 +22,8 @@ pub struct Args {
     /// clusterizer, min = max / 4, fill weight 0.5: the baseline).
     #[arg(long, default_value = "grow")]
     method: ClusterMethod,
-    /// MaxCount: most triangles per cluster (1..=60).
-    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=60))]
+    /// MaxCount: most triangles per cluster (1..=256).
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
     max_count: u32,
     /// MaxSize: the cluster's bounding radius may reach this times the radius of a disk
     /// of its expected area.

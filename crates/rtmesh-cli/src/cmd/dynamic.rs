@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use rtmesh::animate::{Animation, Motion};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::cluster::{ClusterFrames, ClusterMethod, Inside};
+use rtmesh::cluster::{ClusterFrames, ClusterMethod, Inside, MAX_FLAT_TRIANGLES};
 use rtmesh::progress::Progress;
 use rtmesh::trace::intersect::IntersectorKind;
 use rtmesh::trace::measure::{measure, measure_packets_by_kind};
@@ -101,12 +101,12 @@ pub struct Args {
     /// MaxSize of the clusters.
     #[arg(long, default_value_t = 2.0)]
     max_size: f32,
-    /// MaxCount: most triangles per cluster (1..=60).
-    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=60))]
+    /// MaxCount: most triangles per cluster (1..=256; at most 60 with --inside flat).
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
     max_count: u32,
     /// With --build clusters: flat (one leaf of all a cluster's triangles, as the
-    /// slides) or node (an 8-wide node over the cluster's 4-triangle blocks, refitted
-    /// each frame).
+    /// slides) or node (8-wide nodes over the cluster's 4-triangle blocks, one level up
+    /// to 32 triangles and two above, refitted each frame).
     #[arg(long, value_enum, default_value = "node")]
     inside: InsideArg,
     /// Ray packets of neighbouring pixels through rtmesh's builds (8x8 primary packets
@@ -208,7 +208,15 @@ pub fn run(args: Args) -> Result<()> {
         InsideArg::Flat => Inside::Flat,
         InsideArg::Node => Inside::Node,
     };
-    let mut cluster_frames = clusters.as_ref().map(|c| ClusterFrames::new(c, inside));
+    if inside == Inside::Flat && args.max_count as usize > MAX_FLAT_TRIANGLES {
+        bail!(
+            "--inside flat holds at most {MAX_FLAT_TRIANGLES} triangles a cluster (one leaf of 15 blocks); --max-count is {}",
+            args.max_count
+        );
+    }
+    let mut cluster_frames = clusters
+        .as_ref()
+        .map(|c| ClusterFrames::new(c, inside, &mesh));
     #[cfg(feature = "embree")]
     let mut embree: Option<rtmesh_lab::embree::EmbreeScene> = None;
     let mut frames = Vec::with_capacity(args.frames);

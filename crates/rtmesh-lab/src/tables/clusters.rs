@@ -13,6 +13,7 @@ use rtmesh::animate::Animation;
 use rtmesh::bvh::BuildSettings;
 use rtmesh::cluster::{
     disconnected, ClusterFrames, ClusterMethod, ClusterReport, ClusterSettings, Clusters, Inside,
+    MAX_CLUSTER_TRIANGLES,
 };
 use rtmesh::progress::Progress;
 use rtmesh::trace::SceneAccel;
@@ -88,7 +89,7 @@ pub fn cluster_rows(
         .collect();
     let row = |method: ClusterMethod, matched_to, max_triangles, clusters: &Clusters, s: f64| {
         let report = ClusterReport::of(clusters, s);
-        let mut cluster_frames = ClusterFrames::new(clusters, Inside::Node);
+        let mut cluster_frames = ClusterFrames::new(clusters, Inside::Node, mesh);
         let sah = frames
             .iter()
             .map(|f| {
@@ -144,7 +145,7 @@ pub fn cluster_rows(
         // grows), or the one below it if that is nearer.
         progress.message(&format!("{name}: meshopt at {method}'s count"));
         let target = clusters.len();
-        let (mut lo, mut hi) = (1usize, 15usize);
+        let (mut lo, mut hi) = (1usize, MAX_CLUSTER_TRIANGLES / 4);
         while lo < hi {
             let mid = (lo + hi) / 2;
             if meshopt(&mut theirs, mid) <= target {

@@ -70,8 +70,8 @@ use serde::Serialize;
 /// Limits of a cluster.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ClusterSettings {
-    /// Most triangles per cluster, MaxCount (at most 60: a cluster is one BVH leaf of
-    /// at most 15 four-triangle blocks). The slides' leaves hold up to 32.
+    /// Most triangles per cluster, MaxCount (at most [`MAX_CLUSTER_TRIANGLES`]; at most
+    /// [`MAX_FLAT_TRIANGLES`] for [`Inside::Flat`]). The slides' leaves hold up to 32.
     pub max_triangles: usize,
     /// Most distinct vertices per cluster (at most 256, for u8 local indices).
     pub max_vertices: usize,
@@ -92,6 +92,14 @@ impl Default for ClusterSettings {
         }
     }
 }
+
+/// The largest MaxCount: 64 blocks of four, two levels of 8-wide nodes
+/// ([`Inside::Node`]).
+pub const MAX_CLUSTER_TRIANGLES: usize = 256;
+
+/// The largest MaxCount of a cluster that is one leaf ([`Inside::Flat`]): a leaf holds
+/// at most 15 blocks of four.
+pub const MAX_FLAT_TRIANGLES: usize = 60;
 
 /// How clusters are found: `grow`, `contract` or `meshopt`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -582,7 +590,7 @@ pub(crate) fn prepare<'s>(
     mesh: &TriMesh,
     settings: &'s ClusterSettings,
 ) -> (EdgeAdjacency, Vec<(Vec3, f32)>, AcceptanceScale<'s>, Marks) {
-    assert!(settings.max_triangles >= 1 && settings.max_triangles <= 60);
+    assert!((1..=MAX_CLUSTER_TRIANGLES).contains(&settings.max_triangles));
     assert!(settings.max_vertices >= 3 && settings.max_vertices <= 256);
     let adjacency = EdgeAdjacency::build(&mesh.topology());
     let shape: Vec<(Vec3, f32)> = (0..mesh.triangle_count())
@@ -742,9 +750,9 @@ pub enum Inside {
     /// One leaf of all its triangle blocks, as the slides keep no branches inside a
     /// cluster: every ray that reaches it tests all its triangles.
     Flat,
-    /// One 8-wide node over its blocks, each block (two for clusters of over 32
-    /// triangles) a leaf with its own box: a fixed hierarchy inside the cluster,
-    /// refitted every frame.
+    /// A small BVH over its blocks, a block a leaf: built once by binned SAH over the
+    /// blocks' boxes in the pose the clusters were found on, refitted every frame
+    /// (one 8-wide node for up to 8 blocks, 32 triangles).
     Node,
 }
 
@@ -756,10 +764,12 @@ pub struct ClusterFrames<'c> {
     clusters: &'c Clusters,
     /// Cluster `c`'s blocks are `blocks[block_start[c]..block_start[c + 1]]`.
     block_start: Vec<u32>,
-    /// Cluster `c`'s node is `cluster_nodes[node_of[c]]`, or [`NO_NODE`] when it is
-    /// one leaf.
-    node_of: Vec<u32>,
-    /// The clusters' nodes in this frame, which follow the top tree's in its scene.
+    /// Cluster `c`'s nodes are `cluster_nodes[node_start[c]..node_start[c + 1]]`, its
+    /// root first; none when it is one leaf.
+    node_start: Vec<u32>,
+    /// The clusters' nodes in this frame, which follow the top tree's in its scene
+    /// (children after parents, as a [`Bvh`] keeps them); their references to each
+    /// other count from the first.
     cluster_nodes: Vec<BvhNode>,
     /// The blocks of the last frame, taken back from its scene ([`Self::recycle`]).
     blocks: Vec<Triangle4>,
@@ -767,31 +777,119 @@ pub struct ClusterFrames<'c> {
     nodes: Vec<BvhNode>,
 }
 
-/// A cluster with no node of its own: its blocks are one leaf.
-const NO_NODE: u32 = u32::MAX;
+/// A block's box in the rest pose, the primitive of a cluster's own BVH.
+#[derive(Clone, Copy, Debug)]
+struct BlockBox {
+    bounds: Aabb,
+    /// The block, counted from the cluster's first.
+    block: u32,
+}
+
+impl Primitive for BlockBox {
+    fn bounds(&self) -> Aabb {
+        self.bounds
+    }
+}
+
+/// Cluster `c`'s own BVH under [`Inside::Node`], over its blocks' boxes in `rest`: its
+/// nodes, root first, whose leaves name blocks from `first_block` (one each) and whose
+/// inner children count from its root; none for a cluster of one block. The boxes are
+/// left for the frames to refit.
+fn cluster_tree(clusters: &Clusters, c: usize, rest: &[Vec3], first_block: u32) -> Vec<BvhNode> {
+    let range = clusters.triangles_of(c);
+    let corners = |i: usize| clusters.triangle(c, i).map(|v| rest[v as usize]);
+    let boxes: Vec<BlockBox> = range
+        .clone()
+        .step_by(TRIANGLE4_LANES)
+        .enumerate()
+        .map(|(block, first)| {
+            let bounds = (first..(first + TRIANGLE4_LANES).min(range.end))
+                .fold(Aabb::EMPTY, |b, i| b.union(Aabb::from_points(&corners(i))));
+            // The builder leaves out bad boxes; a block with a NaN corner at rest
+            // still gets its leaf (at the origin), for the frames where it is finite.
+            let finite = !bounds.is_empty() && bounds.min.is_finite() && bounds.max.is_finite();
+            BlockBox {
+                bounds: if finite {
+                    bounds
+                } else {
+                    Aabb::from_point(Vec3::ZERO)
+                },
+                block: block as u32,
+            }
+        })
+        .collect();
+    if boxes.len() < 2 {
+        return Vec::new();
+    }
+    let settings = BuildSettings {
+        max_leaf_size: 1,
+        leaf_block: 1,
+        parallel_threshold: usize::MAX,
+        ..BuildSettings::default()
+    };
+    let tree = Bvh::build(boxes, &settings);
+    let placed = |reference: u32| match Child::decode(reference) {
+        Child::Leaf { first, count } => Child::Leaf {
+            first: first_block + tree.primitives[first as usize].block,
+            count,
+        }
+        .encode(),
+        Child::Inner(_) | Child::Empty => reference,
+    };
+    tree.nodes
+        .iter()
+        .map(|node| BvhNode {
+            children: node.children.map(placed),
+            ..BvhNode::EMPTY
+        })
+        .collect()
+}
 
 impl<'c> ClusterFrames<'c> {
-    /// Frames of `clusters`, arranged as `inside` says.
-    pub fn new(clusters: &'c Clusters, inside: Inside) -> Self {
+    /// Frames of `clusters`, arranged as `inside` says; each cluster's own BVH
+    /// ([`Inside::Node`]) is built on `rest`, the pose the clusters were found on.
+    pub fn new(clusters: &'c Clusters, inside: Inside, rest: &TriMesh) -> Self {
         let mut block_start = Vec::with_capacity(clusters.len() + 1);
         block_start.push(0u32);
-        let mut node_of = Vec::with_capacity(clusters.len());
-        let mut cluster_nodes = 0u32;
         for c in 0..clusters.len() {
-            let blocks = clusters.triangles_of(c).len().div_ceil(TRIANGLE4_LANES) as u32;
-            block_start.push(block_start[c] + blocks);
-            if inside == Inside::Node && blocks > 1 {
-                node_of.push(cluster_nodes);
-                cluster_nodes += 1;
-            } else {
-                node_of.push(NO_NODE);
-            }
+            let blocks = clusters.triangles_of(c).len().div_ceil(TRIANGLE4_LANES);
+            assert!(
+                inside == Inside::Node || blocks <= MAX_FLAT_TRIANGLES / TRIANGLE4_LANES,
+                "a flat cluster holds at most {MAX_FLAT_TRIANGLES} triangles"
+            );
+            block_start.push(block_start[c] + blocks as u32);
+        }
+        // Each cluster's tree, numbered from its root, is moved to where it lands.
+        let trees: Vec<Vec<BvhNode>> = match inside {
+            Inside::Flat => vec![Vec::new(); clusters.len()],
+            Inside::Node => (0..clusters.len())
+                .into_par_iter()
+                .map(|c| cluster_tree(clusters, c, &rest.positions, block_start[c]))
+                .collect(),
+        };
+        let mut node_start = Vec::with_capacity(clusters.len() + 1);
+        node_start.push(0u32);
+        let mut cluster_nodes = Vec::with_capacity(trees.iter().map(Vec::len).sum());
+        for tree in trees {
+            let first_node = cluster_nodes.len() as u32;
+            cluster_nodes.extend(tree.into_iter().map(|node| {
+                BvhNode {
+                    children: node
+                        .children
+                        .map(|reference| match Child::decode(reference) {
+                            Child::Inner(n) => Child::Inner(first_node + n).encode(),
+                            _ => reference,
+                        }),
+                    ..node
+                }
+            }));
+            node_start.push(cluster_nodes.len() as u32);
         }
         Self {
             clusters,
             block_start,
-            node_of,
-            cluster_nodes: vec![BvhNode::EMPTY; cluster_nodes as usize],
+            cluster_nodes,
+            node_start,
             blocks: Vec::new(),
             nodes: Vec::new(),
         }
@@ -821,12 +919,9 @@ impl<'c> ClusterFrames<'c> {
         self.cluster_parts()
             .into_par_iter()
             .enumerate()
-            .map_init(Vec::new, |local, (c, (first_block, blocks, node))| {
-                let positions = &mesh.positions;
-                ClusterBox {
-                    bounds: write_cluster(clusters, c, positions, first_block, blocks, node, local),
-                    cluster: c as u32,
-                }
+            .map_init(Vec::new, |local, (c, part)| ClusterBox {
+                bounds: write_cluster(clusters, c, &mesh.positions, part, local),
+                cluster: c as u32,
             })
             .collect_into_vec(&mut boxes);
         // A top leaf holds up to 8 nearby clusters and becomes one 8-wide node over
@@ -838,24 +933,26 @@ impl<'c> ClusterFrames<'c> {
             ..BuildSettings::default()
         };
         let over_boxes = Bvh::build(boxes, &settings);
-        // The top tree's nodes, then the leaves' nodes, then the clusters' (parents
-        // first). Their boxes are the clusters' boxes, which were made from the
-        // blocks: no refit is needed.
+        // The top tree's nodes, then the leaves' group nodes, then the clusters' (parents
+        // first). Their boxes are the clusters' boxes, which were made from the blocks:
+        // no refit is needed.
         let top = over_boxes.nodes.len() as u32;
         let is_group =
             |r: &u32| matches!(Child::decode(*r), Child::Leaf { count, .. } if count > 1);
         let references = over_boxes.nodes.iter().flat_map(|n| n.children);
         let groups = references.chain([over_boxes.root]).filter(is_group).count() as u32;
-        let (block_start, node_of) = (&self.block_start, &self.node_of);
+        let first_cluster_node = top + groups;
+        let (block_start, node_start) = (&self.block_start, &self.node_start);
         let cluster = |p: u32| {
             let c = over_boxes.primitives[p as usize].cluster as usize;
-            match node_of[c] {
-                NO_NODE => Child::Leaf {
+            if node_start[c] == node_start[c + 1] {
+                Child::Leaf {
                     first: block_start[c],
                     count: block_start[c + 1] - block_start[c],
                 }
-                .encode(),
-                n => Child::Inner(top + groups + n).encode(),
+                .encode()
+            } else {
+                Child::Inner(first_cluster_node + node_start[c]).encode()
             }
         };
         let mut group_nodes = Vec::with_capacity(groups as usize);
@@ -880,7 +977,14 @@ impl<'c> ClusterFrames<'c> {
             ..*node
         }));
         nodes.extend_from_slice(&group_nodes);
-        nodes.extend_from_slice(&self.cluster_nodes);
+        let placed = |reference: u32| match Child::decode(reference) {
+            Child::Inner(n) => Child::Inner(first_cluster_node + n).encode(),
+            Child::Leaf { .. } | Child::Empty => reference,
+        };
+        nodes.extend(self.cluster_nodes.iter().map(|node| BvhNode {
+            children: node.children.map(placed),
+            ..*node
+        }));
         let bvh = Bvh {
             root,
             nodes,
@@ -890,25 +994,35 @@ impl<'c> ClusterFrames<'c> {
         SceneAccel::from_single_blas(bvh, mesh.triangle_count(), start)
     }
 
-    /// Each cluster's first block index, its blocks, and its node when it has one, as
-    /// disjoint slices.
-    #[allow(clippy::type_complexity)]
-    fn cluster_parts(&mut self) -> Vec<(u32, &mut [Triangle4], Option<&mut BvhNode>)> {
+    /// Each cluster's first block index and first node index, its blocks and its
+    /// nodes, as disjoint slices.
+    fn cluster_parts(&mut self) -> Vec<ClusterPart<'_>> {
         let mut parts = Vec::with_capacity(self.clusters.len());
         let (mut blocks, mut nodes) = (&mut self.blocks[..], &mut self.cluster_nodes[..]);
-        for (c, &node) in self.node_of.iter().enumerate() {
-            let count = (self.block_start[c + 1] - self.block_start[c]) as usize;
-            let (mine, rest) = std::mem::take(&mut blocks).split_at_mut(count);
+        for c in 0..self.clusters.len() {
+            let block_count = (self.block_start[c + 1] - self.block_start[c]) as usize;
+            let (my_blocks, rest) = std::mem::take(&mut blocks).split_at_mut(block_count);
             blocks = rest;
-            let node = (node != NO_NODE).then(|| {
-                let (mine, rest) = std::mem::take(&mut nodes).split_at_mut(1);
-                nodes = rest;
-                &mut mine[0]
+            let node_count = (self.node_start[c + 1] - self.node_start[c]) as usize;
+            let (my_nodes, rest) = std::mem::take(&mut nodes).split_at_mut(node_count);
+            nodes = rest;
+            parts.push(ClusterPart {
+                first_block: self.block_start[c],
+                blocks: my_blocks,
+                first_node: self.node_start[c],
+                nodes: my_nodes,
             });
-            parts.push((self.block_start[c], mine, node));
         }
         parts
     }
+}
+
+/// Where one cluster's blocks and nodes go in a frame's scene.
+struct ClusterPart<'f> {
+    first_block: u32,
+    blocks: &'f mut [Triangle4],
+    first_node: u32,
+    nodes: &'f mut [BvhNode],
 }
 
 /// A block before it is written.
@@ -919,20 +1033,23 @@ const EMPTY_BLOCK: Triangle4 = Triangle4 {
     ids: [u32::MAX; 4],
 };
 
-/// Write cluster `c`'s blocks (numbered from `first_block`, packed as
-/// [`Triangle4::new`] packs them) and its node's child boxes from `positions`, through
-/// `local` (its vertices' positions, gathered once), and return its box: the union of
-/// its triangles' boxes as the leaf test sees them (from the stored corner and edges,
-/// as [`crate::trace::Triangle`]'s).
+/// Write cluster `c`'s blocks (packed as [`Triangle4::new`] packs them) and its nodes
+/// from `positions`, through `local` (its vertices' positions, gathered once), and
+/// return its box: the union of its triangles' boxes as the leaf test sees them (from
+/// the stored corner and edges, as [`crate::trace::Triangle`]'s).
 fn write_cluster(
     clusters: &Clusters,
     c: usize,
     positions: &[Vec3],
-    first_block: u32,
-    blocks: &mut [Triangle4],
-    node: Option<&mut BvhNode>,
+    part: ClusterPart<'_>,
     local: &mut Vec<Vec3>,
 ) -> Aabb {
+    let ClusterPart {
+        first_block,
+        blocks,
+        first_node,
+        nodes,
+    } = part;
     local.clear();
     local.extend(
         clusters
@@ -941,7 +1058,7 @@ fn write_cluster(
             .map(|&v| positions[v as usize]),
     );
     let range = clusters.triangles_of(c);
-    let mut block_bounds = [Aabb::EMPTY; 15];
+    let mut block_bounds = [Aabb::EMPTY; MAX_CLUSTER_TRIANGLES / TRIANGLE4_LANES];
     for ((block, block_box), first) in blocks
         .iter_mut()
         .zip(&mut block_bounds)
@@ -968,22 +1085,15 @@ fn write_cluster(
         }
     }
     let block_bounds = &block_bounds[..blocks.len()];
-    if let Some(node) = node {
-        // Up to 8 children of ⌈blocks / 8⌉ blocks each (one block each for MaxCount
-        // ≤ 32, two for up to 60 triangles).
-        let per = blocks.len().div_ceil(WIDTH);
-        *node = BvhNode::EMPTY;
-        for (lane, (k, part)) in (0..blocks.len())
-            .step_by(per)
-            .zip(block_bounds.chunks(per))
-            .enumerate()
-        {
-            node.children[lane] = Child::Leaf {
-                first: first_block + k as u32,
-                count: part.len() as u32,
-            }
-            .encode();
-            node.set_child_bounds(lane, part.iter().fold(Aabb::EMPTY, |b, &p| b.union(p)));
+    // The cluster's own tree, children after parents: refitted in one reverse pass.
+    for n in (0..nodes.len()).rev() {
+        for lane in 0..WIDTH {
+            let bounds = match Child::decode(nodes[n].children[lane]) {
+                Child::Leaf { first, .. } => block_bounds[(first - first_block) as usize],
+                Child::Inner(child) => nodes[(child - first_node) as usize].bounds(),
+                Child::Empty => continue,
+            };
+            nodes[n].set_child_bounds(lane, bounds);
         }
     }
     block_bounds.iter().fold(Aabb::EMPTY, |b, &p| b.union(p))
@@ -995,7 +1105,7 @@ pub struct ClusterAccel;
 impl ClusterAccel {
     /// The scene of one frame ([`ClusterFrames::build`] without reuse).
     pub fn build(mesh: &TriMesh, clusters: &Clusters, inside: Inside) -> SceneAccel {
-        ClusterFrames::new(clusters, inside).build(mesh)
+        ClusterFrames::new(clusters, inside, mesh).build(mesh)
     }
 }
 

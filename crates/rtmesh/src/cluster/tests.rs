@@ -126,9 +126,69 @@ fn disconnected_and_non_manifold_meshes_cluster_validly() {
 }
 
 #[test]
+fn a_cluster_tree_has_each_block_a_leaf_once_and_one_node_up_to_eight() {
+    let mesh = crate::scenes::scan_blob(20_000, 3);
+    let settings = ClusterSettings {
+        max_triangles: MAX_CLUSTER_TRIANGLES,
+        ..ClusterSettings::default()
+    };
+    let clusters = ClusterMethod::Grow.cluster(&mesh, &settings);
+    let mut deepest = 0;
+    for c in 0..clusters.len() {
+        let blocks = clusters.triangles_of(c).len().div_ceil(TRIANGLE4_LANES) as u32;
+        let tree = cluster_tree(&clusters, c, &mesh.positions, 100);
+        let mut leaves: Vec<u32> = tree
+            .iter()
+            .flat_map(|node| node.children)
+            .filter_map(|r| match Child::decode(r) {
+                Child::Leaf { first, count: 1 } => Some(first),
+                Child::Inner(n) => {
+                    assert!((n as usize) < tree.len());
+                    None
+                }
+                _ => None,
+            })
+            .collect();
+        leaves.sort_unstable();
+        let expected: Vec<u32> = if blocks < 2 {
+            vec![]
+        } else {
+            (100..100 + blocks).collect()
+        };
+        assert_eq!(leaves, expected, "cluster {c}");
+        if (2..=8).contains(&blocks) {
+            assert_eq!(tree.len(), 1);
+        }
+        deepest = deepest.max(tree.len());
+    }
+    assert!(deepest > 1, "some cluster of over 8 blocks");
+}
+
+#[test]
+fn a_block_with_a_nan_corner_at_rest_is_traced_once_it_is_finite() {
+    let mesh = crate::scenes::scan_blob(2_000, 1);
+    let mut rest = mesh.clone();
+    for t in 0..8 {
+        for v in mesh.triangles[t] {
+            rest.positions[v as usize] = Vec3::NAN;
+        }
+    }
+    let clusters = ClusterMethod::Grow.cluster(&rest, &ClusterSettings::default());
+    let mut frames = ClusterFrames::new(&clusters, Inside::Node, &rest);
+    let over_clusters = frames.build(&mesh);
+    crate::bvh::Bvh::validate(&over_clusters.blas[0]).unwrap();
+    let scene = Scene::from_mesh(mesh.clone());
+    let rebuilt = SceneAccel::build(&scene, &BuildSettings::default());
+    let work = Workload::generate(RayKind::Primary, &scene, &rebuilt, 64, 64, 1);
+    let a = trace_closest::<NoCounters>(&rebuilt, &work.rays).0;
+    let b = trace_closest::<NoCounters>(&over_clusters, &work.rays).0;
+    assert!(a.iter().zip(&b).all(|(x, y)| x.triangle == y.triangle || x.t == y.t));
+}
+
+#[test]
 fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
     let mesh = crate::scenes::scan_blob(20_000, 3);
-    for max_triangles in [8, 32, 60] {
+    for max_triangles in [8, 32, 60, 100, MAX_CLUSTER_TRIANGLES] {
         let settings = ClusterSettings {
             max_triangles,
             ..ClusterSettings::default()
@@ -140,12 +200,20 @@ fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
     check_frames(&mesh, &meshopt::spatial(&mesh, &ClusterSettings::default()));
 }
 
-/// Every motion at three phases: the cluster BVH, flat and with nodes, hits what a
-/// rebuild hits. One [`ClusterFrames`] per arrangement serves every frame, its blocks
-/// recycled from the frame before, as `rtmesh dynamic` uses it.
+/// Every motion at three phases: the cluster BVH, flat (when the clusters fit a leaf)
+/// and with nodes, hits what a rebuild hits. One [`ClusterFrames`] per arrangement
+/// serves every frame, its blocks recycled from the frame before, as `rtmesh dynamic`
+/// uses it.
 fn check_frames(mesh: &TriMesh, clusters: &Clusters) {
+    let largest = (0..clusters.len())
+        .map(|c| clusters.triangles_of(c).len())
+        .max();
+    let fits_a_leaf = largest.unwrap_or(0) <= MAX_FLAT_TRIANGLES;
     for inside in [Inside::Flat, Inside::Node] {
-        let mut frames = ClusterFrames::new(clusters, inside);
+        if inside == Inside::Flat && !fits_a_leaf {
+            continue;
+        }
+        let mut frames = ClusterFrames::new(clusters, inside, mesh);
         for motion in Procedural::ALL {
             let animation = Animation::procedural(mesh, motion);
             for phase in [0.0, 0.5, 1.0] {
@@ -229,7 +297,7 @@ proptest! {
     /// in one cluster with its winding, clusters connected and within their limits, by
     /// both methods; meshoptimizer's hold every triangle once.
     #[test]
-    fn random_meshes_cluster_validly(mesh in crate::scenes::arbitrary_mesh(), max_triangles in 1usize..=60) {
+    fn random_meshes_cluster_validly(mesh in crate::scenes::arbitrary_mesh(), max_triangles in 1usize..=MAX_CLUSTER_TRIANGLES) {
         let settings = ClusterSettings { max_triangles, ..ClusterSettings::default() };
         for method in BY_ACCEPTANCE {
             assert_valid(&mesh, &method.cluster(&mesh, &settings), &settings);

@@ -27,8 +27,8 @@ pub struct Args {
     /// The motion: twist, bend, wave, explode, or gltf / gltf:NAME.
     #[arg(long, default_value = "twist")]
     motion: Motion,
-    /// MaxCount of grow and contract (1..=60).
-    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=60))]
+    /// MaxCount of grow and contract (1..=256).
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
     max_count: u32,
     /// MaxSize of grow and contract.
     #[arg(long, default_value_t = 2.0)]
