@@ -43,8 +43,9 @@
 //! cluster's box; then a binned-SAH BVH over the cluster boxes whose leaves hold up to 8
 //! nearby clusters, as one 8-wide node over their boxes (the slides put a few nearby
 //! clusters in a leaf). A cluster is one flat leaf of its blocks, as in the slides
-//! ([`Inside::Flat`]), or one 8-wide node over the blocks, whose boxes the frame's pass
-//! sets ([`Inside::Node`]).
+//! ([`Inside::Flat`]), or a small BVH over its blocks, built once by SAH on the rest
+//! pose and refitted by the frame's pass ([`Inside::Node`]: one 8-wide node up to 8
+//! blocks).
 //!
 //! Cost: growing is O(T · F) for F candidates on a cluster's frontier (tens); a frame is
 //! O(T) for the boxes and triangle blocks plus a build over T / |k| boxes that stops at

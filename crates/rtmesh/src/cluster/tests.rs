@@ -182,7 +182,10 @@ fn a_block_with_a_nan_corner_at_rest_is_traced_once_it_is_finite() {
     let work = Workload::generate(RayKind::Primary, &scene, &rebuilt, 64, 64, 1);
     let a = trace_closest::<NoCounters>(&rebuilt, &work.rays).0;
     let b = trace_closest::<NoCounters>(&over_clusters, &work.rays).0;
-    assert!(a.iter().zip(&b).all(|(x, y)| x.triangle == y.triangle || x.t == y.t));
+    assert!(a
+        .iter()
+        .zip(&b)
+        .all(|(x, y)| x.triangle == y.triangle || x.t == y.t));
 }
 
 #[test]
