@@ -73,6 +73,13 @@ impl Aabb {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
+    /// True when the box holds a point and its corners are finite: a box a BVH can
+    /// be built over.
+    #[inline]
+    pub fn is_finite(&self) -> bool {
+        !self.is_empty() && self.min.is_finite() && self.max.is_finite()
+    }
+
     /// Edge lengths (zero for the empty box).
     #[inline]
     pub fn extent(&self) -> Vec3 {

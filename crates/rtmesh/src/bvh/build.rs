@@ -176,7 +176,7 @@ pub(super) fn build<P: Primitive>(
         .iter()
         .enumerate()
         .map(|(i, p)| (i, p.bounds()))
-        .filter(|(_, b)| !b.is_empty() && b.min.is_finite() && b.max.is_finite())
+        .filter(|(_, b)| b.is_finite())
         .map(|(i, b)| PrimRef::new(b, i as u32))
         .collect();
     if refs.is_empty() {

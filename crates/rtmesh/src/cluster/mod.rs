@@ -808,9 +808,8 @@ fn cluster_tree(clusters: &Clusters, c: usize, rest: &[Vec3], first_block: u32) 
                 .fold(Aabb::EMPTY, |b, i| b.union(Aabb::from_points(&corners(i))));
             // The builder leaves out bad boxes; a block with a NaN corner at rest
             // still gets its leaf (at the origin), for the frames where it is finite.
-            let finite = !bounds.is_empty() && bounds.min.is_finite() && bounds.max.is_finite();
             BlockBox {
-                bounds: if finite {
+                bounds: if bounds.is_finite() {
                     bounds
                 } else {
                     Aabb::from_point(Vec3::ZERO)
@@ -846,6 +845,19 @@ fn cluster_tree(clusters: &Clusters, c: usize, rest: &[Vec3], first_block: u32) 
         .collect()
 }
 
+/// `node` with its inner children moved `by` places (its leaves stay).
+fn shifted(node: &BvhNode, by: u32) -> BvhNode {
+    BvhNode {
+        children: node
+            .children
+            .map(|reference| match Child::decode(reference) {
+                Child::Inner(n) => Child::Inner(by + n).encode(),
+                Child::Leaf { .. } | Child::Empty => reference,
+            }),
+        ..*node
+    }
+}
+
 impl<'c> ClusterFrames<'c> {
     /// Frames of `clusters`, arranged as `inside` says; each cluster's own BVH
     /// ([`Inside::Node`]) is built on `rest`, the pose the clusters were found on.
@@ -873,17 +885,7 @@ impl<'c> ClusterFrames<'c> {
         let mut cluster_nodes = Vec::with_capacity(trees.iter().map(Vec::len).sum());
         for tree in trees {
             let first_node = cluster_nodes.len() as u32;
-            cluster_nodes.extend(tree.into_iter().map(|node| {
-                BvhNode {
-                    children: node
-                        .children
-                        .map(|reference| match Child::decode(reference) {
-                            Child::Inner(n) => Child::Inner(first_node + n).encode(),
-                            _ => reference,
-                        }),
-                    ..node
-                }
-            }));
+            cluster_nodes.extend(tree.iter().map(|node| shifted(node, first_node)));
             node_start.push(cluster_nodes.len() as u32);
         }
         Self {
@@ -978,14 +980,8 @@ impl<'c> ClusterFrames<'c> {
             ..*node
         }));
         nodes.extend_from_slice(&group_nodes);
-        let placed = |reference: u32| match Child::decode(reference) {
-            Child::Inner(n) => Child::Inner(first_cluster_node + n).encode(),
-            Child::Leaf { .. } | Child::Empty => reference,
-        };
-        nodes.extend(self.cluster_nodes.iter().map(|node| BvhNode {
-            children: node.children.map(placed),
-            ..*node
-        }));
+        let placed = self.cluster_nodes.iter();
+        nodes.extend(placed.map(|node| shifted(node, first_cluster_node)));
         let bvh = Bvh {
             root,
             nodes,
