@@ -43,6 +43,12 @@ pub struct Args {
     /// Most triangles in one strip.
     #[arg(long, default_value_t = sah::StripSettings::default().max_length as u32, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     max_length: u32,
+    /// Most cuts a tunnelling move may make after Strip-RT's ordering (sah only): a
+    /// strip end facing another strip's inside reroutes it, when that leaves fewer
+    /// strips. 0 keeps the published ordering's strips (longer strips pack smaller and
+    /// trace slower: docs/measurements/strips.md).
+    #[arg(long, default_value_t = sah::StripSettings::default().tunnel_cuts as u32, value_parser = clap::value_parser!(u32).range(0..=rtmesh::strip::tunnel::MAX_CUTS as i64))]
+    tunnel_cuts: u32,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -54,6 +60,9 @@ pub struct Report {
     mesh: String,
     method: String,
     max_length: u32,
+    /// Most cuts of a tunnelling move (sah only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    tunnel_cuts: Option<u32>,
     #[serde(flatten)]
     strips: StripReport,
     /// meshoptimizer's own output, restart indices included (meshopt only).
@@ -69,19 +78,17 @@ pub struct Report {
     output: Option<PathBuf>,
 }
 
-/// Strip the mesh by `method`: the strips and, for meshopt, its own index count.
+/// Strip the mesh by `method` (for meshopt, `settings.max_length` is all that counts):
+/// the strips and, for meshopt, its own index count.
 pub fn strips_by(
     mesh: &TriMesh,
     method: &str,
-    max_length: usize,
+    settings: &sah::StripSettings,
 ) -> Result<(Strips, Option<usize>)> {
     match method {
-        "sah" => Ok((
-            sah::stripify(mesh, &sah::StripSettings { max_length }),
-            None,
-        )),
+        "sah" => Ok((sah::stripify(mesh, settings), None)),
         "meshopt" => {
-            let m = meshopt::stripify(mesh, max_length);
+            let m = meshopt::stripify(mesh, settings.max_length);
             Ok((m.strips, Some(m.native_indices)))
         }
         other => bail!("unknown strip method `{other}` (have: sah, meshopt)"),
@@ -98,7 +105,10 @@ pub fn run(args: Args) -> Result<()> {
         .and_then(|e| e.to_str())
         .unwrap_or("")
         .to_ascii_lowercase();
-    let max_length = args.max_length as usize;
+    let settings = sah::StripSettings {
+        max_length: args.max_length as usize,
+        tunnel_cuts: args.tunnel_cuts as usize,
+    };
     let (strips, native, seconds) = if matches!(ext.as_str(), "gltf" | "glb") {
         // glTF keeps the scene: each geometry is stripped on its own.
         let mut scene = scene.clone();
@@ -107,7 +117,7 @@ pub fn run(args: Args) -> Result<()> {
         let mut native = None;
         for mesh in &mut scene.meshes {
             *mesh = weld_exact(mesh).mesh;
-            let (strips, n) = strips_by(mesh, &args.method, max_length)?;
+            let (strips, n) = strips_by(mesh, &args.method, &settings)?;
             native = n.map(|n| n + native.unwrap_or(0));
             all.push(strips);
         }
@@ -118,7 +128,7 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         let mesh = weld_exact(&scene.flatten()).mesh;
         let start = std::time::Instant::now();
-        let (strips, native) = strips_by(&mesh, &args.method, max_length)?;
+        let (strips, native) = strips_by(&mesh, &args.method, &settings)?;
         let seconds = start.elapsed().as_secs_f64();
         if let Some(path) = &args.output {
             match ext.as_str() {
@@ -143,6 +153,7 @@ pub fn run(args: Args) -> Result<()> {
     });
     let report = Report {
         mesh: args.mesh,
+        tunnel_cuts: (args.method == "sah").then_some(args.tunnel_cuts),
         method: args.method,
         max_length: args.max_length,
         native_indices_per_triangle: native.map(|n| n as f64 / figures.triangles.max(1) as f64),
@@ -153,12 +164,14 @@ pub fn run(args: Args) -> Result<()> {
     emit(&report, args.json, |r| {
         let s = &r.strips;
         println!(
-            "{}: {} triangles in {} strips by {} (max length {}) in {:.3} s ({:.2} M triangles/s)",
+            "{}: {} triangles in {} strips by {} (max length {}{}) in {:.3} s ({:.2} M triangles/s)",
             r.mesh,
             s.triangles,
             s.strips,
             r.method,
             r.max_length,
+            r.tunnel_cuts
+                .map_or(String::new(), |c| format!(", tunnels of up to {c} cuts")),
             s.seconds,
             s.triangles as f64 / s.seconds.max(1e-9) / 1e6
         );

@@ -95,6 +95,8 @@ struct Config {
 pub struct StripTable {
     /// Most triangles per strip (at most [`MAX_TRACED_LENGTH`]).
     pub max_length: usize,
+    /// Most cuts of Strip-RT's tunnelling moves (`StripSettings::tunnel_cuts`).
+    pub tunnel_cuts: usize,
     /// Strips per BVH leaf.
     pub strips_per_leaf: usize,
     /// How a strip's triangles are tested.
@@ -168,7 +170,13 @@ pub fn strip_rows(
         leaves: Leaves::Pairs(pairs),
     });
     let mut strips = Strips::default();
-    let t = seconds(|| strips = sah::stripify(&mesh, &sah::StripSettings { max_length }));
+    let t = seconds(|| strips = sah::stripify(
+            &mesh,
+            &sah::StripSettings {
+                max_length,
+                tunnel_cuts: table.tunnel_cuts,
+            },
+        ));
     configs.push(strip_config(&mesh, "sah", strips, t, table));
     let mut theirs = None;
     let t = seconds(|| theirs = Some(meshopt::stripify(&mesh, max_length)));

@@ -41,6 +41,7 @@
 pub mod meshopt;
 pub mod packed;
 pub mod sah;
+pub mod tunnel;
 #[cfg(test)]
 mod tests;
 

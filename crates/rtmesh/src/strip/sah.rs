@@ -22,7 +22,9 @@
 //!    first, each sequence in at most one merge per round; the merged sequence gets the
 //!    lowest common ancestor of the two nodes. A sequence with no possible merge leaves
 //!    the active list; no merge may pass `max_length` triangles.
-//! 4. **Output** in rtmesh's strip format ([`super::Strips`]), strips in the order the
+//! 4. **Tunnelling** (not in the thesis; [`super::tunnel`]): strips rerouted through up
+//!    to `tunnel_cuts` cuts wherever that leaves fewer of them.
+//! 5. **Output** in rtmesh's strip format ([`super::Strips`]), strips in the order the
 //!    BVH's leaves reach their first triangle, so that neighbouring strips are near in
 //!    memory.
 //!
@@ -46,11 +48,17 @@ pub struct StripSettings {
     /// Most triangles in one strip (the published reason for a limit: strips of uneven
     /// length trace worse).
     pub max_length: usize,
+    /// Most cuts a tunnelling move may make after the ordering ([`super::tunnel`]; at
+    /// most [`super::tunnel::MAX_CUTS`]); 0 keeps the published ordering's strips.
+    pub tunnel_cuts: usize,
 }
 
 impl Default for StripSettings {
     fn default() -> Self {
-        Self { max_length: 32 }
+        Self {
+            max_length: 32,
+            tunnel_cuts: 3,
+        }
     }
 }
 
@@ -309,6 +317,8 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
         }
     }
 
+    super::tunnel::tunnel(&mut links, &neighbours, max_length, settings.tunnel_cuts);
+
     // Output in leaf order, each sequence walked from one end.
     let mut encoder = Encoder::new(&mesh.triangles);
     let mut emitted = vec![false; n];
@@ -332,7 +342,7 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
 }
 
 /// Record that `from`'s side `side` links to `to`.
-fn link(links: &mut [[(u32, u8); 2]], from: u32, to: u32, side: u8) {
+pub(super) fn link(links: &mut [[(u32, u8); 2]], from: u32, to: u32, side: u8) {
     let slots = &mut links[from as usize];
     let free = if slots[0].0 == NONE { 0 } else { 1 };
     slots[free] = (to, side);
@@ -340,7 +350,7 @@ fn link(links: &mut [[(u32, u8); 2]], from: u32, to: u32, side: u8) {
 
 /// The triangles of the sequence that has `end` as an end, from that end, each with the
 /// side it leaves by to the next (none for the last).
-fn walk(links: &[[(u32, u8); 2]], end: u32) -> impl Iterator<Item = (u32, Option<u8>)> + '_ {
+pub(super) fn walk(links: &[[(u32, u8); 2]], end: u32) -> impl Iterator<Item = (u32, Option<u8>)> + '_ {
     let mut previous = NONE;
     let mut current = end;
     std::iter::from_fn(move || {

@@ -64,7 +64,10 @@ fn a_quad_is_one_strip_of_four_indices() {
 #[test]
 fn grid_strips_approach_one_index_per_triangle() {
     let mesh = scenes::quad_grid(40);
-    let settings = StripSettings { max_length: 64 };
+    let settings = StripSettings {
+        max_length: 64,
+        ..Default::default()
+    };
     let strips = stripify(&mesh, &settings);
     assert_valid(&mesh, &strips, 64);
     let report = StripReport::of(&strips, 0.0);
@@ -75,7 +78,10 @@ fn grid_strips_approach_one_index_per_triangle() {
 fn fans_and_spheres_strip_validly() {
     for mesh in [scenes::fan_cylinder(48), scenes::uv_sphere(12, 24)] {
         for max_length in [1, 2, 7, 32] {
-            let strips = stripify(&mesh, &StripSettings { max_length });
+            let strips = stripify(&mesh, &StripSettings {
+                max_length,
+                ..Default::default()
+            });
             assert_valid(&mesh, &strips, max_length);
         }
     }
@@ -140,9 +146,16 @@ proptest! {
     /// Random, non-manifold, disconnected meshes with repeated vertices: every triangle
     /// once, with its winding, for Strip-RT and for meshoptimizer's strips.
     #[test]
-    fn random_meshes_strip_losslessly(mesh in scenes::arbitrary_mesh(), max_length in 1usize..40) {
-        let strips = stripify(&mesh, &StripSettings { max_length });
+    fn random_meshes_strip_losslessly(
+        mesh in scenes::arbitrary_mesh(),
+        max_length in 1usize..40,
+        tunnel_cuts in 0..=tunnel::MAX_CUTS,
+    ) {
+        let strips = stripify(&mesh, &StripSettings { max_length, tunnel_cuts });
         assert_valid(&mesh, &strips, max_length);
+        // Tunnelling only ever joins strips.
+        let published = stripify(&mesh, &StripSettings { max_length, tunnel_cuts: 0 });
+        prop_assert!(strips.len() <= published.len());
         let theirs = meshopt::stripify(&mesh, max_length);
         assert_valid(&mesh, &theirs.strips, max_length);
         assert_packs_losslessly(&mesh, &strips);

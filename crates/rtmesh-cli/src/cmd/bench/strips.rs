@@ -23,6 +23,10 @@ pub struct Args {
     /// Most triangles per strip (at most 64 for tracing).
     #[arg(long, default_value_t = rtmesh::strip::sah::StripSettings::default().max_length as u32, value_parser = clap::value_parser!(u32).range(1..=MAX_TRACED_LENGTH as i64))]
     max_length: u32,
+    /// Most cuts of Strip-RT's tunnelling moves after its ordering (0: the published
+    /// ordering alone).
+    #[arg(long, default_value_t = rtmesh::strip::sah::StripSettings::default().tunnel_cuts as u32, value_parser = clap::value_parser!(u32).range(0..=rtmesh::strip::tunnel::MAX_CUTS as i64))]
+    tunnel_cuts: u32,
     /// Strips per BVH leaf (1..=15).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
     strips_per_leaf: u32,
@@ -64,6 +68,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let table = StripTable {
         max_length: args.max_length as usize,
+        tunnel_cuts: args.tunnel_cuts as usize,
         strips_per_leaf: args.strips_per_leaf as usize,
         inside,
         kinds: ray_kinds(&args.rays),
