@@ -20,9 +20,9 @@ pub enum Leaf {
     Tri,
     /// 4 triangle pairs per SIMD test, paired by --pair-method after welding.
     Pair,
-    /// Strip-RT strips (default maximum length), traced directly: a BVH over the
-    /// strips, each strip's triangles tested four at a time (the scene flattened and
-    /// welded).
+    /// Strip-RT strips (default settings), traced directly: a BVH over the strips, a
+    /// stored 4-bit box per four triangles of a strip, and the blocks a ray enters
+    /// decoded and tested four at a time (the scene flattened and welded).
     Strip,
 }
 
@@ -186,7 +186,7 @@ pub fn run(args: Args) -> Result<()> {
 fn strip_accel(scene: &rtmesh::Scene) -> (AccelStats, StripAccel) {
     let mesh = rtmesh::mesh::weld_exact(&scene.flatten()).mesh;
     let strips = rtmesh::strip::sah::stripify(&mesh, &Default::default());
-    let accel = StripAccel::build(&mesh.positions, &strips, 1, Inside::Flat)
+    let accel = StripAccel::build(&mesh.positions, &strips, 1, Inside::Quantized)
         .expect("the default maximum length is within the tracer's");
     let bvh = accel.stats();
     let bytes = accel.hierarchy_bytes() + accel.topology_bytes() + accel.position_bytes();

@@ -170,13 +170,15 @@ pub fn strip_rows(
         leaves: Leaves::Pairs(pairs),
     });
     let mut strips = Strips::default();
-    let t = seconds(|| strips = sah::stripify(
+    let t = seconds(|| {
+        strips = sah::stripify(
             &mesh,
             &sah::StripSettings {
                 max_length,
                 tunnel_cuts: table.tunnel_cuts,
             },
-        ));
+        )
+    });
     configs.push(strip_config(&mesh, "sah", strips, t, table));
     let mut theirs = None;
     let t = seconds(|| theirs = Some(meshopt::stripify(&mesh, max_length)));

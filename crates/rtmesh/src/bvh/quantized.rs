@@ -112,12 +112,19 @@ impl QuantizedNode {
         self.meta.iter().filter(|&&m| m != EMPTY_LANE).count() as u32
     }
 
-    /// The decoded box of `lane`.
+    /// The decoded box of `lane`, the same planes as [`Self::decoded_planes`] gives.
+    #[inline(always)]
     pub fn child_bounds(&self, lane: usize) -> Aabb {
-        let p = self.decoded_planes();
+        let plane = |k: usize| {
+            dequantize(
+                self.origin[k % 3],
+                self.planes[k][lane],
+                step(self.exponent[k % 3]),
+            )
+        };
         Aabb {
-            min: Vec3::new(p[0][lane], p[1][lane], p[2][lane]),
-            max: Vec3::new(p[3][lane], p[4][lane], p[5][lane]),
+            min: Vec3::new(plane(0), plane(1), plane(2)),
+            max: Vec3::new(plane(3), plane(4), plane(5)),
         }
     }
 }

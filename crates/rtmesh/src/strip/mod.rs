@@ -41,9 +41,9 @@
 pub mod meshopt;
 pub mod packed;
 pub mod sah;
-pub mod tunnel;
 #[cfg(test)]
 mod tests;
+pub mod tunnel;
 
 use crate::mesh::{names_a_vertex_twice, HalfEdgeRuns, TriMesh};
 use serde::Serialize;

@@ -142,43 +142,83 @@ impl PackedStrips {
     /// `cursor` (as [`Self::pack`] returned it), as [`Strips::for_each_triangle`] does.
     #[inline(always)]
     pub fn for_each_triangle(&self, s: usize, cursor: &Cursor, mut f: impl FnMut(usize, [u32; 3])) {
-        let length = self.length(s);
+        let mut decoder = self.decoder(s, cursor);
+        for _ in 0..self.length(s) {
+            let (k, t) = decoder.next_triangle();
+            f(k, t);
+        }
+    }
+
+    /// A decoder of strip `s` from its cursor, triangle by triangle.
+    #[inline(always)]
+    pub fn decoder(&self, s: usize, cursor: &Cursor) -> Decoder<'_> {
         let first = cursor.triangle as usize;
-        let mut slot = first + 2 * s;
-        let mut back = cursor.back as usize;
-        let mut next_fresh = cursor.next_fresh;
-        // Branch-free on fresh against reuse (about as often one as the other): the
-        // next distance byte is read either way (`back` ends in a spare byte for that)
-        // and counts only for a reuse. The four-byte escape is rare.
-        let mut index = || {
-            let fresh = self.fresh[slot / 32] >> (slot % 32) & 1;
-            slot += 1;
-            let reuse = 1 - fresh;
-            debug_assert!(back < self.back.len());
-            // SAFETY: `pack` wrote one distance per reuse of the strip stream and a
-            // spare byte after the last, and a cursor starts at a strip's first
-            // distance, so the byte read before each index is within `back`.
-            let mut d = u32::from(unsafe { *self.back.get_unchecked(back) });
-            back += reuse as usize;
-            if d == 0 && reuse == 1 {
-                d = u32::from_le_bytes([0, 1, 2, 3].map(|i| self.back[back + i]));
-                back += 4;
-            }
-            let v = next_fresh - d * reuse;
-            next_fresh += fresh;
-            v
-        };
-        let mut t = [index(), index(), index()];
-        f(first, t);
-        for k in first + 1..first + length {
-            let n = index();
-            t = if self.turns[k / 32] >> (k % 32) & 1 != 0 {
+        Decoder {
+            packed: self,
+            k: first,
+            first,
+            slot: first + 2 * s,
+            back: cursor.back as usize,
+            next_fresh: cursor.next_fresh,
+            t: [0; 3],
+        }
+    }
+}
+
+/// Decodes one strip of a [`PackedStrips`] in order (a loop the caller writes, so that
+/// the tracer's per-triangle work is inlined with it).
+pub struct Decoder<'a> {
+    packed: &'a PackedStrips,
+    k: usize,
+    first: usize,
+    slot: usize,
+    back: usize,
+    next_fresh: u32,
+    t: [u32; 3],
+}
+
+impl Decoder<'_> {
+    /// The next index of the stream. Branch-free on fresh against reuse (about as often
+    /// one as the other): the next distance byte is read either way (`back` ends in a
+    /// spare byte for that) and counts only for a reuse. The four-byte escape is rare.
+    #[inline(always)]
+    fn index(&mut self) -> u32 {
+        let p = self.packed;
+        let fresh = p.fresh[self.slot / 32] >> (self.slot % 32) & 1;
+        self.slot += 1;
+        let reuse = 1 - fresh;
+        debug_assert!(self.back < p.back.len());
+        // SAFETY: `pack` wrote one distance per reuse of the strip stream and a spare
+        // byte after the last, and a cursor starts at a strip's first distance, so the
+        // byte read before each index is within `back`.
+        let mut d = u32::from(unsafe { *p.back.get_unchecked(self.back) });
+        self.back += reuse as usize;
+        if d == 0 && reuse == 1 {
+            d = u32::from_le_bytes([0, 1, 2, 3].map(|i| p.back[self.back + i]));
+            self.back += 4;
+        }
+        let v = self.next_fresh - d * reuse;
+        self.next_fresh += fresh;
+        v
+    }
+
+    /// The next triangle `(k, [p, q, r])`; call it at most the strip's length times.
+    #[inline(always)]
+    pub fn next_triangle(&mut self) -> (usize, [u32; 3]) {
+        let k = self.k;
+        self.k += 1;
+        self.t = if k == self.first {
+            [self.index(), self.index(), self.index()]
+        } else {
+            let n = self.index();
+            let t = self.t;
+            if self.packed.turns[k / 32] >> (k % 32) & 1 != 0 {
                 [t[0], t[2], n]
             } else {
                 [t[2], t[1], n]
-            };
-            f(k, t);
-        }
+            }
+        };
+        (k, self.t)
     }
 }
 

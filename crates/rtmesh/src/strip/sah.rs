@@ -350,7 +350,10 @@ pub(super) fn link(links: &mut [[(u32, u8); 2]], from: u32, to: u32, side: u8) {
 
 /// The triangles of the sequence that has `end` as an end, from that end, each with the
 /// side it leaves by to the next (none for the last).
-pub(super) fn walk(links: &[[(u32, u8); 2]], end: u32) -> impl Iterator<Item = (u32, Option<u8>)> + '_ {
+pub(super) fn walk(
+    links: &[[(u32, u8); 2]],
+    end: u32,
+) -> impl Iterator<Item = (u32, Option<u8>)> + '_ {
     let mut previous = NONE;
     let mut current = end;
     std::iter::from_fn(move || {

@@ -78,10 +78,13 @@ fn grid_strips_approach_one_index_per_triangle() {
 fn fans_and_spheres_strip_validly() {
     for mesh in [scenes::fan_cylinder(48), scenes::uv_sphere(12, 24)] {
         for max_length in [1, 2, 7, 32] {
-            let strips = stripify(&mesh, &StripSettings {
-                max_length,
-                ..Default::default()
-            });
+            let strips = stripify(
+                &mesh,
+                &StripSettings {
+                    max_length,
+                    ..Default::default()
+                },
+            );
             assert_valid(&mesh, &strips, max_length);
         }
     }
@@ -186,23 +189,25 @@ fn rts_files_round_trip_and_refuse_damage() {
     assert!(Strips::from_rts(&absurd).is_err());
 }
 
-#[test]
-fn traced_strips_hit_what_triangles_hit() {
+/// Traced through each `(inside, strips per leaf, strips)`, the strips of `mesh` hit
+/// what its triangles hit on primary, diffuse and shadow rays, but for edge ties.
+fn assert_traced_like_triangles(
+    mesh: &TriMesh,
+    configs: &[(crate::trace::strip::Inside, usize, &Strips)],
+) {
     use crate::bvh::BuildSettings;
     use crate::trace::run::{trace_closest, trace_occluded};
-    use crate::trace::strip::{Inside, StripAccel};
+    use crate::trace::strip::StripAccel;
     use crate::trace::{NoCounters, RayKind, SceneAccel, Workload};
-    let mesh = scenes::scan_blob(20_000, 7);
     let scene = crate::Scene::from_mesh(mesh.clone());
     let triangles = SceneAccel::build(&scene, &BuildSettings::default());
-    let strips = stripify(&mesh, &StripSettings::default());
     for kind in [RayKind::Primary, RayKind::Diffuse, RayKind::Shadow] {
         let work = Workload::generate(kind, &scene, &triangles, 64, 64, 1);
         let reference = trace_closest::<NoCounters>(&triangles, &work.rays).0;
         let reference_occluded = trace_occluded::<NoCounters>(&triangles, &work.rays).0;
-        for inside in [Inside::Flat, Inside::Implicit, Inside::Quantized] {
+        for &(inside, per_leaf, strips) in configs {
             let accel =
-                StripAccel::build(&mesh.positions, &strips, 2, inside).expect("short strips");
+                StripAccel::build(&mesh.positions, strips, per_leaf, inside).expect("short strips");
             // Any-hit: occluded exactly where the triangles are, but for edge ties.
             let occluded = trace_occluded::<NoCounters>(&accel, &work.rays).0;
             let agree = occluded
@@ -215,7 +220,7 @@ fn traced_strips_hit_what_triangles_hit() {
                 "{kind:?} {inside:?} occlusion: {agree}/{}",
                 occluded.len()
             );
-            assert!(occluded.iter().any(|&o| o) && occluded.iter().any(|&o| !o));
+            assert_eq!(occluded.contains(&true), reference_occluded.contains(&true));
             let hits = trace_closest::<NoCounters>(&accel, &work.rays).0;
             let same = hits
                 .iter()
@@ -241,6 +246,37 @@ fn traced_strips_hit_what_triangles_hit() {
             }
         }
     }
+}
+
+#[test]
+fn traced_strips_hit_what_triangles_hit() {
+    use crate::trace::strip::Inside;
+    let mesh = scenes::scan_blob(20_000, 7);
+    let strips = stripify(&mesh, &StripSettings::default());
+    // Quantized boxes also in strips of up to 64 triangles (two 8-wide box tests).
+    let long = stripify(
+        &mesh,
+        &StripSettings {
+            max_length: 64,
+            ..Default::default()
+        },
+    );
+    assert!((0..long.len()).any(|s| long.triangles_of(s).len() > 32));
+    assert_traced_like_triangles(
+        &mesh,
+        &[
+            (Inside::Flat, 2, &strips),
+            (Inside::Implicit, 2, &strips),
+            (Inside::Quantized, 2, &strips),
+            (Inside::Quantized, 1, &long),
+        ],
+    );
+    // One strip: the top tree is one leaf, and the quantized boxes' frame is the
+    // strip's own box.
+    let quad = scenes::quad_grid(1);
+    let one = stripify(&quad, &StripSettings::default());
+    assert_eq!(one.len(), 1);
+    assert_traced_like_triangles(&quad, &[(Inside::Quantized, 1, &one)]);
 }
 
 /// The triangles of `mesh` that name three vertices, each as its rotation starting at

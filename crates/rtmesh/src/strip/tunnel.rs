@@ -236,10 +236,13 @@ fn side_of(neighbours: &[[u32; 3]], t: u32, u: u32) -> u8 {
 mod tests {
     use super::*;
 
+    /// Per triangle, its links as [`tunnel`] takes them.
+    type Links = Vec<[(u32, u8); 2]>;
+
     /// A strip b0–b1–b2–b3 with a lone triangle `x` beside b1 and a lone `z` beside b2
     /// (triangles 0..6 = b0, b1, b2, b3, x, z). No two ends face each other, so the
     /// ordering leaves three strips; cutting b1 from b2 makes x–b1–b0 and b3–b2–z.
-    fn strip_with_two_lone_triangles() -> (Vec<[(u32, u8); 2]>, Vec<[u32; 3]>) {
+    fn strip_with_two_lone_triangles() -> (Links, Vec<[u32; 3]>) {
         let across = |u: u32, side: u32| u << 2 | side;
         let neighbours = vec![
             [across(1, 0), NONE, NONE],

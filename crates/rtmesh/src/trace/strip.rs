@@ -12,29 +12,34 @@
 //! triangles from the shared vertex buffer into the tracer's 4-wide blocks on the
 //! stack. Inside a strip ([`Inside`]):
 //!
-//! - [`Inside::Flat`]: every block of the strip is tested. The command line's
-//!   default: at length 32 (11–12 triangles a strip on the scans) it traces 22–30%
-//!   faster than the implicit split, whose boxes read every corner anyway;
+//! - [`Inside::Quantized`]: each run of four triangles (one traced block) has a stored
+//!   box, its six planes quantized to 4 bits within the strip's *frame*: the box of
+//!   its leaf as the quantized parent node decodes it, which the traversal has just
+//!   entered, so nothing is stored per strip but its leaf's place and its first block
+//!   (4 + 4 bytes a strip, 3 a block). A leaf visit tests the boxes eight at a time
+//!   with the node test, then walks the strip's index stream up to the last block a
+//!   box let through, loading corners only for those blocks. The command line's
+//!   default: on the tunnelled strips (19–21 triangles) it traces 1.4–1.6× flat.
+//! - [`Inside::Flat`]: every block of the strip is tested; nothing is stored. At the
+//!   published ordering's 11–12 triangles a strip it traced 22–30% faster than the
+//!   implicit split, whose boxes read every corner anyway;
 //! - [`Inside::Implicit`]: a range longer than 8 triangles is split at its middle
 //!   triangle, the two halves' boxes are computed from the decoded corners on the fly
 //!   and tested, nearest first. Nothing is stored for it.
-//! - [`Inside::Quantized`]: each run of four triangles (one traced block) has a stored
-//!   box, its six planes quantized to 8 bits within the strip's f32 box, as Embree's
-//!   QBVH and CWBVH store child planes. A leaf visit tests those boxes first, then walks
-//!   the strip's index stream and loads positions only for the blocks a box let
-//!   through. It costs 24 + 4 bytes a strip and 6 a block, and saves the decode of
-//!   every missed block (docs/measurements/strips.md has the trade-off measured).
+//!
+//! docs/measurements/strips.md has the trade-offs measured.
 //!
 //! Hits carry the input triangle id; their `(u, v)` are relative to the strip's
 //! rotation of the corners (it starts at another corner when the strip entered the
 //! triangle by another edge), not necessarily the input's.
 //!
-//! Cost per leaf visit: O(L) to decode a strip of L triangles, then ⌈L/4⌉ block tests
-//! (flat), or about 2·log₂(L/8) box computations of O(L) and a few blocks (implicit).
+//! Cost per leaf visit: ⌈L/32⌉ 8-wide box tests, the decode of the strip's indices up to
+//! the last block entered and a block test per block entered (quantized); O(L) to
+//! decode a strip of L triangles, then ⌈L/4⌉ block tests (flat); or about 2·log₂(L/8) box computations of O(L) and a few blocks (implicit).
 
 use super::triangle::Triangle4;
 use super::{traverse, Counters, Hit, LeafBlock, RayQuery, Tracer, Triangle};
-use crate::bvh::{BuildSettings, Bvh, BvhStats, Primitive, QuantizedBvh};
+use crate::bvh::{BuildSettings, Bvh, BvhStats, Child, Primitive, QuantizedBvh, WIDTH};
 use crate::geom::{Aabb, Ray};
 use crate::simd::{dispatch, Isa, Kernel};
 use crate::strip::packed::{Cursor, PackedStrips};
@@ -52,32 +57,52 @@ pub enum Inside {
     Flat,
     /// A balanced binary split at the middle triangle, boxes computed on the fly.
     Implicit,
-    /// A stored 8-bit box per block of four triangles, within the strip's f32 box.
+    /// A stored 4-bit box per block of four triangles, within the box of its leaf.
     Quantized,
 }
 
+/// `leaf_of` of a strip in a tree that is one leaf.
+const ROOT_LEAF: u32 = u32::MAX;
+
 /// The stored boxes of [`Inside::Quantized`].
 struct BlockBoxes {
-    /// Each strip's box.
-    strip_box: Vec<Aabb>,
+    /// Each strip's leaf in the top tree, as `node << 3 | lane` ([`ROOT_LEAF`] when the
+    /// tree is one leaf): its blocks' planes are within that lane's decoded box, the
+    /// *frame*, which the traversal has just entered, so no box is stored per strip.
+    leaf_of: Vec<u32>,
+    /// The frame of a tree that is one leaf: the union of the blocks.
+    root_frame: Aabb,
     /// Strip `s`'s blocks are `planes[block_start[s]..block_start[s + 1]]`.
     block_start: Vec<u32>,
-    /// min x, y, z, max x, y, z of each block, in 255ths of its strip box's extent.
-    planes: Vec<[u8; 6]>,
+    /// min x, y, z, max x, y, z of each block, in [`LEVELS`]ths of its frame's
+    /// extent, four bits each ([`pack`]).
+    planes: Vec<[u8; 3]>,
 }
 
 impl BlockBoxes {
-    /// The boxes of every block of `strips` over `positions`, each quantized outward.
-    fn build(strips: &Strips, positions: &[Vec3]) -> Self {
+    /// The boxes of every block of `strips` over `positions`, each quantized outward
+    /// within its strip's leaf box in `bvh` (the strips are its primitives, in order).
+    fn build(strips: &Strips, positions: &[Vec3], bvh: &QuantizedBvh<Cursor>) -> Self {
+        let mut leaf_of = vec![ROOT_LEAF; strips.len()];
+        for (i, node) in bvh.nodes.iter().enumerate() {
+            for lane in 0..crate::bvh::WIDTH {
+                if let Child::Leaf { first, count } = Child::decode(node.child(lane)) {
+                    for s in first..first + count {
+                        leaf_of[s as usize] = (i as u32) << 3 | lane as u32;
+                    }
+                }
+            }
+        }
         let mut out = Self {
-            strip_box: Vec::with_capacity(strips.len()),
+            leaf_of,
+            root_frame: Aabb::EMPTY,
             block_start: vec![0],
             planes: Vec::new(),
         };
-        let mut blocks: Vec<Aabb> = Vec::with_capacity(MAX_TRACED_LENGTH / 4);
+        let mut boxes: Vec<Vec<Aabb>> = Vec::with_capacity(strips.len());
         for s in 0..strips.len() {
+            let mut blocks = Vec::with_capacity(strips.triangles_of(s).len().div_ceil(4));
             let first = strips.triangles_of(s).start;
-            blocks.clear();
             strips.for_each_triangle(s, |k, t| {
                 let block = (k - first) / 4;
                 if block == blocks.len() {
@@ -87,64 +112,102 @@ impl BlockBoxes {
                     blocks[block] = blocks[block].grown_by_point(positions[v as usize]);
                 }
             });
-            let strip_box = blocks.iter().fold(Aabb::EMPTY, |a, &b| a.union(b));
-            for b in &blocks {
-                out.planes.push(quantize(&strip_box, b));
+            out.root_frame = blocks.iter().fold(out.root_frame, |a, &b| a.union(b));
+            boxes.push(blocks);
+        }
+        for (s, blocks) in boxes.iter().enumerate() {
+            let frame = out.frame(s, bvh);
+            for b in blocks {
+                out.planes.push(pack(quantize(&frame, b)));
             }
-            out.strip_box.push(strip_box);
             out.block_start.push(out.planes.len() as u32);
         }
         out
     }
 
+    /// The box strip `s`'s planes are within.
+    #[inline(always)]
+    fn frame(&self, s: usize, bvh: &QuantizedBvh<Cursor>) -> Aabb {
+        match self.leaf_of[s] {
+            ROOT_LEAF => self.root_frame,
+            leaf => bvh.nodes[(leaf >> 3) as usize].child_bounds((leaf & 7) as usize),
+        }
+    }
+
     /// Bytes stored.
     fn bytes(&self) -> usize {
-        24 * self.strip_box.len() + 4 * self.block_start.len() + 6 * self.planes.len()
+        4 * (self.leaf_of.len() + self.block_start.len()) + 3 * self.planes.len()
     }
 }
 
-/// One 255th of `strip_box`'s extent, the unit of its blocks' planes.
+/// Steps of a block plane across its frame: four bits a plane. Against 8 bits (255
+/// steps) this halves the planes' bytes (6 → 3 a block, 0.8 byte a triangle on the
+/// scans, which brings hierarchy and topology under 5 bytes a triangle) for 5–7% of
+/// the speed: 3.8 triangle tests a primary ray instead of 2.9
+/// (docs/measurements/strips.md).
+const LEVELS: u8 = 15;
+
+/// One [`LEVELS`]th of `frame`'s extent, the unit of its blocks' planes.
 #[inline(always)]
-fn plane_step(strip_box: &Aabb) -> Vec3 {
-    strip_box.extent() / 255.0
+fn plane_step(frame: &Aabb) -> Vec3 {
+    frame.extent() / f32::from(LEVELS)
 }
 
-/// The box of 8-bit `planes` within `strip_box` (`step` its [`plane_step`]): mins
-/// counted up from its min, maxes down from its max, so that 0 and 255 give its planes
-/// exactly.
+/// Six 4-bit planes in three bytes: (min x, min y), (min z, max x), (max y, max z), the
+/// first of each pair in the low nibble.
+fn pack(q: [u8; 6]) -> [u8; 3] {
+    [q[0] | q[1] << 4, q[2] | q[3] << 4, q[4] | q[5] << 4]
+}
+
+/// The planes [`pack`] packed.
 #[inline(always)]
-fn dequantize(strip_box: &Aabb, step: Vec3, planes: [u8; 6]) -> Aabb {
+fn unpack(p: [u8; 3]) -> [u8; 6] {
+    [
+        p[0] & 15,
+        p[0] >> 4,
+        p[1] & 15,
+        p[1] >> 4,
+        p[2] & 15,
+        p[2] >> 4,
+    ]
+}
+
+/// The box of `planes` within `frame` (`step` its [`plane_step`]): mins counted up from
+/// its min, maxes down from its max, so that 0 and [`LEVELS`] give its planes exactly.
+#[inline(always)]
+fn dequantize(frame: &Aabb, step: Vec3, planes: [u8; 6]) -> Aabb {
     let q = planes.map(f32::from);
+    let top = f32::from(LEVELS);
     Aabb {
-        min: strip_box.min + Vec3::new(q[0], q[1], q[2]) * step,
-        max: strip_box.max - Vec3::new(255.0 - q[3], 255.0 - q[4], 255.0 - q[5]) * step,
+        min: frame.min + Vec3::new(q[0], q[1], q[2]) * step,
+        max: frame.max - Vec3::new(top - q[3], top - q[4], top - q[5]) * step,
     }
 }
 
-/// `b`'s planes within `strip_box`, rounded outward so that the dequantized box holds
-/// `b` (checked against [`dequantize`] itself, so float rounding cannot shrink it).
-fn quantize(strip_box: &Aabb, b: &Aabb) -> [u8; 6] {
-    let extent = strip_box.extent();
-    let step = plane_step(strip_box);
+/// `b`'s planes within `frame`, rounded outward so that the dequantized box holds `b`
+/// (checked against [`dequantize`] itself, so float rounding cannot shrink it).
+fn quantize(frame: &Aabb, b: &Aabb) -> [u8; 6] {
+    let extent = frame.extent();
+    let step = plane_step(frame);
     let mut q = [0u8; 6];
     for axis in 0..3 {
         let scale = if extent[axis] > 0.0 {
-            255.0 / extent[axis]
+            f32::from(LEVELS) / extent[axis]
         } else {
             0.0
         };
-        q[axis] = ((b.min[axis] - strip_box.min[axis]) * scale)
+        q[axis] = ((b.min[axis] - frame.min[axis]) * scale)
             .floor()
-            .clamp(0.0, 255.0) as u8;
-        q[axis + 3] = ((b.max[axis] - strip_box.min[axis]) * scale)
+            .clamp(0.0, f32::from(LEVELS)) as u8;
+        q[axis + 3] = ((b.max[axis] - frame.min[axis]) * scale)
             .ceil()
-            .clamp(0.0, 255.0) as u8;
+            .clamp(0.0, f32::from(LEVELS)) as u8;
     }
     for axis in 0..3 {
-        while q[axis] > 0 && dequantize(strip_box, step, q).min[axis] > b.min[axis] {
+        while q[axis] > 0 && dequantize(frame, step, q).min[axis] > b.min[axis] {
             q[axis] -= 1;
         }
-        while q[axis + 3] < 255 && dequantize(strip_box, step, q).max[axis] < b.max[axis] {
+        while q[axis + 3] < LEVELS && dequantize(frame, step, q).max[axis] < b.max[axis] {
             q[axis + 3] += 1;
         }
     }
@@ -251,7 +314,6 @@ impl StripAccel {
             .iter()
             .map(|&v| positions[v as usize])
             .collect();
-        let blocks = (inside == Inside::Quantized).then(|| BlockBoxes::build(&strips, &reordered));
         let (packed, starts) =
             PackedStrips::pack(&strips).expect("vertices numbered by first use, strips of ≤ 64");
         let bvh = QuantizedBvh {
@@ -259,6 +321,8 @@ impl StripAccel {
             nodes: quantized.nodes,
             root: quantized.root,
         };
+        let blocks =
+            (inside == Inside::Quantized).then(|| BlockBoxes::build(&strips, &reordered, &bvh));
         let stats = BvhStats {
             node_bytes: bvh.node_bytes(),
             build_seconds: start.elapsed().as_secs_f64(),
@@ -333,7 +397,7 @@ impl StripAccel {
     /// Test the triangles of the strip at `cursor` (decoded into `buffer` as needed);
     /// `f` tests one block and returns whether to stop.
     #[inline(always)]
-    fn visit_strip<C: Counters>(
+    fn visit_strip<S: Isa, C: Counters>(
         &self,
         cursor: &Cursor,
         buffer: &mut Decoded,
@@ -342,9 +406,15 @@ impl StripAccel {
         counters: &mut C,
         f: impl FnMut(&Triangle4, &mut f32) -> bool,
     ) -> bool {
+        let s = self.strip_of(cursor);
         match &self.blocks {
-            Some(blocks) => self.visit_quantized(cursor, blocks, buffer, query, t_max, counters, f),
-            None if self.inside == Inside::Flat => self.visit_flat(cursor, t_max, counters, f),
+            Some(blocks) => {
+                let entered = self.entered_blocks::<S, C>(s, blocks, query, *t_max, counters);
+                self.test_blocks(s, cursor, entered, t_max, counters, f)
+            }
+            None if self.inside == Inside::Flat => {
+                self.test_blocks(s, cursor, u32::MAX, t_max, counters, f)
+            }
             None => {
                 let triangles = self.decode(cursor, buffer);
                 self.visit(triangles, query, t_max, counters, f)
@@ -352,97 +422,87 @@ impl StripAccel {
         }
     }
 
-    /// [`Inside::Flat`]: the strip at `cursor` decoded straight into blocks of four
-    /// (no buffer of the strip's triangles), each tested as it fills.
+    /// [`Inside::Quantized`]: the blocks of strip `s` whose stored boxes the ray
+    /// enters, as a mask, eight boxes at a time through the node test.
     #[inline(always)]
-    fn visit_flat<C: Counters>(
+    fn entered_blocks<S: Isa, C: Counters>(
         &self,
+        s: usize,
+        blocks: &BlockBoxes,
+        query: &RayQuery,
+        t_max: f32,
+        counters: &mut C,
+    ) -> u32 {
+        let planes =
+            &blocks.planes[blocks.block_start[s] as usize..blocks.block_start[s + 1] as usize];
+        counters.box_tests(planes.len() as u32);
+        let frame = blocks.frame(s, &self.bvh);
+        let step = plane_step(&frame);
+        let mut entered = 0u32;
+        for (i, eight) in planes.chunks(WIDTH).enumerate() {
+            // Lanes past the strip's blocks hold the frame; the mask drops them.
+            let mut lanes = [[0.0f32; WIDTH]; 6];
+            for (lane, &q) in eight.iter().enumerate() {
+                let b = dequantize(&frame, step, unpack(q));
+                for axis in 0..3 {
+                    lanes[axis][lane] = b.min[axis];
+                    lanes[axis + 3][lane] = b.max[axis];
+                }
+            }
+            let (_, mask) = traverse::children::<S>(&lanes, query, t_max);
+            entered |= (mask & ((1 << eight.len()) - 1)) << (WIDTH * i);
+        }
+        entered
+    }
+
+    /// Strip `s` (at `cursor`) decoded straight into blocks of four (no buffer of the
+    /// strip's triangles), the blocks in `wanted` (bit i for block i) each tested as it
+    /// fills; the decoding stops after the last wanted block, and loads no corners for
+    /// the others. Flat inside wants every block.
+    #[inline(always)]
+    fn test_blocks<C: Counters>(
+        &self,
+        s: usize,
         cursor: &Cursor,
+        wanted: u32,
         t_max: &mut f32,
         counters: &mut C,
         mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
     ) -> bool {
-        let s = self.strip_of(cursor);
-        let first = cursor.triangle as usize;
+        let length = self.strips.length(s);
+        let blocks = length.div_ceil(4);
+        let wanted = if blocks < 32 {
+            wanted & ((1 << blocks) - 1)
+        } else {
+            wanted
+        };
+        if wanted == 0 {
+            return false;
+        }
+        let decoded = (4 * (32 - wanted.leading_zeros() as usize)).min(length);
         // Replaced at each block's first triangle.
         let mut block = Triangle4::of_one(&Triangle::new([Vec3::ZERO; 3], u32::MAX));
-        let mut stopped = false;
-        self.strips.for_each_triangle(s, cursor, |k, t| {
-            if stopped {
-                return;
+        let mut decoder = self.strips.decoder(s, cursor);
+        for i in 0..decoded {
+            let (k, t) = decoder.next_triangle();
+            if wanted & (1 << (i / 4)) == 0 {
+                continue;
             }
             let triangle = Triangle::new(
                 t.map(|v| self.positions[v as usize]),
                 self.triangle_source[k],
             );
-            let lane = (k - first) % 4;
+            let lane = i % 4;
             if lane == 0 {
                 block = Triangle4::of_one(&triangle);
             } else {
                 block.set(lane, &triangle);
             }
-            if lane == 3 {
+            if lane == 3 || i + 1 == decoded {
                 block.count_tests(counters);
-                stopped = f(&block, t_max);
-            }
-        });
-        if !stopped && !self.strips.length(s).is_multiple_of(4) {
-            block.count_tests(counters);
-            stopped = f(&block, t_max);
-        }
-        stopped
-    }
-
-    /// [`Inside::Quantized`]: the blocks whose stored boxes the ray enters, decoded and
-    /// tested in strip order.
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn visit_quantized<C: Counters>(
-        &self,
-        cursor: &Cursor,
-        blocks: &BlockBoxes,
-        buffer: &mut Decoded,
-        query: &RayQuery,
-        t_max: &mut f32,
-        counters: &mut C,
-        mut f: impl FnMut(&Triangle4, &mut f32) -> bool,
-    ) -> bool {
-        let s = self.strip_of(cursor);
-        let planes =
-            &blocks.planes[blocks.block_start[s] as usize..blocks.block_start[s + 1] as usize];
-        let strip_box = &blocks.strip_box[s];
-        let step = plane_step(strip_box);
-        counters.box_tests(planes.len() as u32);
-        let mut entered = 0u16;
-        for (i, &q) in planes.iter().enumerate() {
-            if box_entry(&dequantize(strip_box, step, q), query, *t_max).is_some() {
-                entered |= 1 << i;
-            }
-        }
-        if entered == 0 {
-            return false;
-        }
-        let first = cursor.triangle as usize;
-        self.strips.for_each_triangle(s, cursor, |k, t| {
-            if entered & (1 << ((k - first) / 4)) != 0 {
-                buffer.0[k - first].write(Triangle::new(
-                    t.map(|v| self.positions[v as usize]),
-                    self.triangle_source[k],
-                ));
-            }
-        });
-        let n = self.strips.length(s);
-        for i in (0..planes.len()).filter(|&i| entered & (1 << i) != 0) {
-            let (lo, hi) = (4 * i, (4 * i + 4).min(n));
-            // SAFETY: every triangle of an entered block was written above, and
-            // hi ≤ n ≤ MAX_TRACED_LENGTH (checked in `build`).
-            let chunk = unsafe {
-                std::slice::from_raw_parts(buffer.0.as_ptr().add(lo).cast::<Triangle>(), hi - lo)
-            };
-            let block = Triangle4::new(chunk);
-            block.count_tests(counters);
-            if f(&block, t_max) {
-                return true;
+                if f(&block, t_max) {
+                    return true;
+                }
             }
         }
         false
@@ -520,7 +580,7 @@ impl StripAccel {
                 let before = found;
                 for cursor in leaf {
                     let (b, q) = (&mut buffer, &query);
-                    self.visit_strip(cursor, b, q, t_max, counters, |block, t_max| {
+                    self.visit_strip::<S, C>(cursor, b, q, t_max, counters, |block, t_max| {
                         if block.intersect_into(&query, &mut hit) {
                             *t_max = hit.t;
                             found = true;
@@ -553,7 +613,7 @@ impl StripAccel {
                 let mut t = t_max;
                 leaf.iter().any(|cursor| {
                     let (b, q) = (&mut buffer, &query);
-                    self.visit_strip(cursor, b, q, &mut t, counters, |block, t_max| {
+                    self.visit_strip::<S, C>(cursor, b, q, &mut t, counters, |block, t_max| {
                         block.occludes(&query, *t_max)
                     })
                 })
@@ -638,7 +698,7 @@ mod tests {
     use proptest::prelude::*;
 
     proptest! {
-        /// A quantized block box holds the block, and stays within its strip's box.
+        /// A quantized block box holds the block, stays within its frame, and packs losslessly.
         #[test]
         fn quantized_boxes_hold_their_blocks(
             corners in proptest::collection::vec((-1e3f32..1e3, -1e3f32..1e3, -1e3f32..1e3), 2..8),
@@ -652,7 +712,9 @@ mod tests {
             }
             let strip_box = Aabb::from_points(&points);
             let block = Aabb::from_points(&points[1..]);
-            let back = dequantize(&strip_box, plane_step(&strip_box), quantize(&strip_box, &block));
+            let q = quantize(&strip_box, &block);
+            prop_assert_eq!(unpack(pack(q)), q);
+            let back = dequantize(&strip_box, plane_step(&strip_box), q);
             for axis in 0..3 {
                 prop_assert!(back.min[axis] <= block.min[axis] && back.max[axis] >= block.max[axis]);
                 prop_assert!(back.min[axis] >= strip_box.min[axis]);

@@ -30,11 +30,12 @@ pub struct Args {
     /// Strips per BVH leaf (1..=15).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
     strips_per_leaf: u32,
-    /// flat (test every triangle of a strip, four at a time), implicit (split at the
-    /// middle, boxes computed on the fly) or quantized (a stored 8-bit box per four
-    /// triangles). Flat is the default: computing the boxes reads every corner anyway,
-    /// and measured 22–25% slower than testing them (docs/measurements/strips.md).
-    #[arg(long, default_value = "flat")]
+    /// quantized (a stored 4-bit box per four triangles, within the strip's leaf box:
+    /// 3 bytes a block and 8 a strip), flat (test every triangle of a strip, four at a
+    /// time, nothing stored) or implicit (split at the middle, boxes computed on the
+    /// fly). Quantized is the default: 1.4–1.6× flat on the default strips
+    /// (docs/measurements/strips.md).
+    #[arg(long, default_value = "quantized")]
     inside: String,
     /// Workloads, comma separated.
     #[arg(
