@@ -33,7 +33,7 @@
 //! lowest common ancestor is a common prefix; and keeps, per triangle, the sequence it
 //! is an end of, so that a merge touches four entries and relabels nothing.
 //!
-//! Cost: O(T log T) for the partition (0.8 µs a triangle, three quarters of the whole
+//! Cost: O(T log T) for the partition (0.8 µs a triangle, about half of the whole
 //! on the dragon); each ordering round is O(active) with a sort of the candidate
 //! merges, and the rounds number about log₂ L plus a tail (9 on the dragon); tunnelling
 //! adds about a sixth to the whole (0.2–0.3 s of 1.5 s on the dragon, one core).
