@@ -292,7 +292,12 @@ impl StripReport {
             indices_per_triangle: total.indices as f64 / triangles,
             mean_length: total.triangles as f64 / total.strips.max(1) as f64,
             restarts: total.strips.saturating_sub(1),
-            bytes_per_triangle: bytes as f64 / triangles,
+            // No triangles: no bytes per triangle, though the strip table's end remains.
+            bytes_per_triangle: if total.triangles == 0 {
+                0.0
+            } else {
+                bytes as f64 / triangles
+            },
             seconds,
             ..total
         }

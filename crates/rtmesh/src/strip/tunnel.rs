@@ -131,7 +131,9 @@ pub(super) fn tunnel(
                 }
             }
             joined += round;
-            if round * 100 < strips - joined {
+            // Another round while it still joins 1% of the strips; none left to join
+            // (an empty mesh) ends it too.
+            if round == 0 || round * 100 < strips - joined {
                 break;
             }
         }
@@ -292,5 +294,11 @@ mod tests {
             assert_eq!(tunnel(&mut links, &neighbours, max_length, cuts), 0);
             assert_eq!(links, before);
         }
+    }
+
+    /// No triangles: nothing to join, and the rounds end (they once spun forever).
+    #[test]
+    fn an_empty_cover_ends_at_once() {
+        assert_eq!(tunnel(&mut [], &[], 32, MAX_CUTS), 0);
     }
 }
