@@ -659,7 +659,7 @@ fn strip_and_bench_strips_keys_and_files() {
         if method == "meshopt" {
             expected.push("native_indices_per_triangle");
         } else {
-            expected.push("tunnel_cuts");
+            expected.extend(["tunnel_cuts", "partition"]);
         }
         let report = assert_keys(
             &[
@@ -687,7 +687,7 @@ fn strip_and_bench_strips_keys_and_files() {
     // glTF keeps the scene: the room's instances and materials, its surface whole.
     let gltf = dir.join("room.glb");
     let mut expected: Vec<&str> = keys.to_vec();
-    expected.extend(["degenerate_not_written", "tunnel_cuts"]);
+    expected.extend(["degenerate_not_written", "tunnel_cuts", "partition"]);
     let report = assert_keys(
         &[
             "strip",

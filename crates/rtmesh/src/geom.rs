@@ -187,9 +187,36 @@ pub fn triangle_area(a: Vec3, b: Vec3, c: Vec3) -> f32 {
     0.5 * (b - a).cross(c - a).length()
 }
 
+/// Morton code of a grid cell: the bits of `q`'s coordinates interleaved, x lowest
+/// (bit 3i of the code is x's bit i, 3i + 1 y's, 3i + 2 z's), from 21 bits an axis.
+/// The top three bits of a code name the cell's octant, the next three its octant in
+/// that, and so on, so a Morton order is an octree's depth-first order.
+pub fn morton_code(q: glam::UVec3) -> u64 {
+    let spread = |x: u32| {
+        let mut x = u64::from(x) & 0x1f_ffff;
+        x = (x | x << 32) & 0x001f_0000_0000_ffff;
+        x = (x | x << 16) & 0x001f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        (x | x << 2) & 0x1249_2492_4924_9249
+    };
+    spread(q.x) | spread(q.y) << 1 | spread(q.z) << 2
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn morton_codes_interleave_the_coordinates() {
+        assert_eq!(morton_code(glam::UVec3::new(1, 0, 0)), 0b001);
+        assert_eq!(morton_code(glam::UVec3::new(0, 1, 0)), 0b010);
+        assert_eq!(morton_code(glam::UVec3::new(0, 0, 1)), 0b100);
+        assert_eq!(morton_code(glam::UVec3::new(3, 0, 2)), 0b101_001);
+        let top = (1 << 20) as u32;
+        assert_eq!(morton_code(glam::UVec3::new(top, top, top)), 0b111 << 60);
+        assert_eq!(morton_code(glam::UVec3::splat(0x1f_ffff)), (1 << 63) - 1);
+    }
 
     #[test]
     fn empty_box_is_union_identity() {

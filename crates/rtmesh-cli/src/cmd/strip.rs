@@ -49,6 +49,12 @@ pub struct Args {
     /// trace slower: docs/measurements/strips.md).
     #[arg(long, default_value_t = sah::StripSettings::default().tunnel_cuts as u32, value_parser = clap::value_parser!(u32).range(0..=rtmesh::strip::tunnel::MAX_CUTS as i64))]
     tunnel_cuts: u32,
+    /// The hierarchy Strip-RT's ordering measures tree distances in (sah only): sah, an
+    /// SAH BVH down to single triangles, as published; or morton, the octree of the
+    /// triangles' Morton codes, a sort instead of a build (about twice as fast in all,
+    /// strips that trace 2–7% slower: docs/measurements/strips.md).
+    #[arg(long, default_value = "sah")]
+    partition: sah::PartitionMethod,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
@@ -63,6 +69,9 @@ pub struct Report {
     /// Most cuts of a tunnelling move (sah only).
     #[serde(skip_serializing_if = "Option::is_none")]
     tunnel_cuts: Option<u32>,
+    /// The partition of the ordering (sah only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    partition: Option<sah::PartitionMethod>,
     #[serde(flatten)]
     strips: StripReport,
     /// meshoptimizer's own output, restart indices included (meshopt only).
@@ -108,6 +117,7 @@ pub fn run(args: Args) -> Result<()> {
     let settings = sah::StripSettings {
         max_length: args.max_length as usize,
         tunnel_cuts: args.tunnel_cuts as usize,
+        partition: args.partition,
     };
     let (strips, native, seconds) = if matches!(ext.as_str(), "gltf" | "glb") {
         // glTF keeps the scene: each geometry is stripped on its own.
@@ -154,6 +164,7 @@ pub fn run(args: Args) -> Result<()> {
     let report = Report {
         mesh: args.mesh,
         tunnel_cuts: (args.method == "sah").then_some(args.tunnel_cuts),
+        partition: (args.method == "sah").then_some(args.partition),
         method: args.method,
         max_length: args.max_length,
         native_indices_per_triangle: native.map(|n| n as f64 / figures.triangles.max(1) as f64),
@@ -164,7 +175,7 @@ pub fn run(args: Args) -> Result<()> {
     emit(&report, args.json, |r| {
         let s = &r.strips;
         println!(
-            "{}: {} triangles in {} strips by {} (max length {}{}) in {:.3} s ({:.2} M triangles/s)",
+            "{}: {} triangles in {} strips by {} (max length {}{}{}) in {:.3} s ({:.2} M triangles/s)",
             r.mesh,
             s.triangles,
             s.strips,
@@ -172,6 +183,9 @@ pub fn run(args: Args) -> Result<()> {
             r.max_length,
             r.tunnel_cuts
                 .map_or(String::new(), |c| format!(", tunnels of up to {c} cuts")),
+            r.partition
+                .filter(|&p| p != sah::PartitionMethod::Sah)
+                .map_or(String::new(), |p| format!(", {p:?} partition").to_lowercase()),
             s.seconds,
             s.triangles as f64 / s.seconds.max(1e-9) / 1e6
         );

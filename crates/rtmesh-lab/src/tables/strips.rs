@@ -97,6 +97,8 @@ pub struct StripTable {
     pub max_length: usize,
     /// Most cuts of Strip-RT's tunnelling moves (`StripSettings::tunnel_cuts`).
     pub tunnel_cuts: usize,
+    /// The partition of Strip-RT's ordering.
+    pub partition: sah::PartitionMethod,
     /// Strips per BVH leaf.
     pub strips_per_leaf: usize,
     /// How a strip's triangles are tested.
@@ -176,6 +178,7 @@ pub fn strip_rows(
             &sah::StripSettings {
                 max_length,
                 tunnel_cuts: table.tunnel_cuts,
+                partition: table.partition,
             },
         )
     });

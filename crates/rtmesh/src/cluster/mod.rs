@@ -553,14 +553,7 @@ pub(crate) fn acceptance(
 fn morton(p: Vec3, bounds: &Aabb) -> u32 {
     let extent = bounds.extent().max(Vec3::splat(f32::MIN_POSITIVE));
     let q = ((p - bounds.min) / extent * 1023.0).clamp(Vec3::ZERO, Vec3::splat(1023.0));
-    let spread = |x: u32| {
-        let mut x = x & 0x3ff;
-        x = (x | (x << 16)) & 0x030000FF;
-        x = (x | (x << 8)) & 0x0300F00F;
-        x = (x | (x << 4)) & 0x030C30C3;
-        (x | (x << 2)) & 0x09249249
-    };
-    spread(q.x as u32) | (spread(q.y as u32) << 1) | (spread(q.z as u32) << 2)
+    crate::geom::morton_code(q.as_uvec3()) as u32
 }
 
 /// `mesh`'s triangle ids in the order of a Morton curve over their centroids (those

@@ -7,7 +7,9 @@
 //!    other way round, within one group and material).
 //! 2. **Partitioning**: a binned-SAH BVH down to single triangles (rtmesh's builder with
 //!    leaves of one); each triangle keeps the node that references it. The 8-wide
-//!    collapse makes up to eight triangles share a node, at distance 0.
+//!    collapse makes up to eight triangles share a node, at distance 0. Or, not as
+//!    published ([`PartitionMethod::Morton`]), the octree of the centroids' Morton
+//!    codes: a sort, not a build.
 //! 3. **Ordering**: every triangle starts as a sequence of length one, tied to its node.
 //!    Each round, every active sequence ranks each merge with an adjacent active
 //!    sequence at its open ends (up to four open sides; three for a lone triangle) by
@@ -33,15 +35,18 @@
 //! lowest common ancestor is a common prefix; and keeps, per triangle, the sequence it
 //! is an end of, so that a merge touches four entries and relabels nothing.
 //!
-//! Cost: O(T log T) for the partition (0.8 µs a triangle, about half of the whole
-//! on the dragon); each ordering round is O(active) with a sort of the candidate
-//! merges, and the rounds number about log₂ L plus a tail (9 on the dragon); tunnelling
-//! adds about a sixth to the whole (0.2–0.3 s of 1.5 s on the dragon, one core).
+//! Cost: O(T log T) for the partition (SAH: 0.7 µs a triangle, about 60% of the whole
+//! on the dragon; Morton: under a tenth of that); each ordering round is O(active)
+//! with a sort of the candidate merges, and the rounds number about log₂ L plus a
+//! tail (9 on the dragon); tunnelling and output add about a fifth (0.2 s of 1.1 s on
+//! the dragon, one core).
 
 use super::{strip_neighbours, Encoder, Strips, NONE};
 use crate::bvh::{BuildSettings, Bvh, Child};
+use crate::geom::{morton_code, Aabb};
 use crate::mesh::TriMesh;
 use crate::trace::Triangle;
+use glam::{UVec3, Vec3};
 
 /// Settings of Strip-RT.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -52,6 +57,21 @@ pub struct StripSettings {
     /// Most cuts a tunnelling move may make after the ordering ([`super::tunnel`]; at
     /// most [`super::tunnel::MAX_CUTS`]); 0 keeps the published ordering's strips.
     pub tunnel_cuts: usize,
+    /// The object hierarchy whose tree distances the ordering ranks merges by.
+    pub partition: PartitionMethod,
+}
+
+/// The hierarchy Strip-RT's ordering measures tree distances in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PartitionMethod {
+    /// A binned-SAH BVH down to single triangles, as published.
+    #[default]
+    Sah,
+    /// An octree by the Morton codes of the triangles' centroids (not published): a
+    /// sort instead of a build, about a tenth of the SAH partition's time, for strips
+    /// that trace 2–7% slower (`docs/measurements/strips.md`).
+    Morton,
 }
 
 impl Default for StripSettings {
@@ -59,12 +79,25 @@ impl Default for StripSettings {
         Self {
             max_length: 32,
             tunnel_cuts: 3,
+            partition: PartitionMethod::Sah,
         }
     }
 }
 
 /// Levels below the root that a [`Node`]'s path holds.
 const PATH_LEVELS: u32 = 21;
+
+impl std::str::FromStr for PartitionMethod {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<Self, String> {
+        match name {
+            "sah" => Ok(Self::Sah),
+            "morton" => Ok(Self::Morton),
+            other => Err(format!("the partition is sah or morton, not `{other}`")),
+        }
+    }
+}
 
 /// A node of the partition, named by its path from the root: the child slot (0..8) it
 /// takes at each level, three bits a level from the top bit down, and its depth (the
@@ -118,7 +151,8 @@ struct Partition {
 }
 
 impl Partition {
-    fn build(mesh: &TriMesh) -> Self {
+    /// The published partition: rtmesh's binned-SAH builder with leaves of one.
+    fn sah(mesh: &TriMesh) -> Self {
         let triangles: Vec<Triangle> = (0..mesh.triangle_count())
             .map(|t| Triangle::new(mesh.corners(t), t as u32))
             .collect();
@@ -148,6 +182,54 @@ impl Partition {
         Self {
             node_of,
             leaf_order: bvh.primitives.iter().map(|t| t.id).collect(),
+        }
+    }
+
+    /// The octree of the centroids' Morton codes (21 bits an axis in the centroids'
+    /// bounding cube), read from the sorted codes without building it: a cell at level
+    /// l is a common prefix of 3·l bits, which is what [`Node`]'s path holds. Each
+    /// triangle hangs from the smallest cell it shares with another triangle (its
+    /// longer common prefix with the codes before and after it), as leaves of one under
+    /// one 8-wide node share that node in the SAH partition. Cost: one sort of T codes.
+    fn morton(mesh: &TriMesh) -> Self {
+        let n = mesh.triangle_count();
+        let centroids: Vec<Vec3> = (0..n)
+            .map(|t| {
+                let c = mesh.corners(t);
+                (c[0] + c[1] + c[2]) / 3.0
+            })
+            .collect();
+        let bounds = Aabb::from_points(centroids.iter().filter(|c| c.is_finite()));
+        let last = (1u32 << PATH_LEVELS) - 1;
+        let scale = last as f32 / bounds.extent().max_element().max(f32::MIN_POSITIVE);
+        // Codes shifted to the top of the word, where paths keep their levels.
+        let mut coded: Vec<(u64, u32)> = (0..n as u32)
+            .filter(|&t| centroids[t as usize].is_finite())
+            .map(|t| {
+                let q = ((centroids[t as usize] - bounds.min) * scale).as_uvec3();
+                (morton_code(q.min(UVec3::splat(last))) << 1, t)
+            })
+            .collect();
+        coded.sort_unstable();
+        let shared_levels = |a: u64, b: u64| ((a ^ b).leading_zeros() / 3).min(PATH_LEVELS);
+        // Triangles with non-finite centroids are left out, and hang from the root.
+        let mut node_of = vec![Node::ROOT; n];
+        for (i, &(code, t)) in coded.iter().enumerate() {
+            let before = i
+                .checked_sub(1)
+                .map_or(0, |j| shared_levels(code, coded[j].0));
+            let after = coded
+                .get(i + 1)
+                .map_or(0, |&(next, _)| shared_levels(code, next));
+            let levels = before.max(after);
+            node_of[t as usize] = Node {
+                path: code & !(u64::MAX >> (3 * levels)),
+                depth: levels + 1,
+            };
+        }
+        Self {
+            node_of,
+            leaf_order: coded.into_iter().map(|(_, t)| t).collect(),
         }
     }
 }
@@ -180,7 +262,10 @@ pub fn stripify(mesh: &TriMesh, settings: &StripSettings) -> Strips {
     let Partition {
         node_of,
         leaf_order: mut order,
-    } = Partition::build(mesh);
+    } = match settings.partition {
+        PartitionMethod::Sah => Partition::sah(mesh),
+        PartitionMethod::Morton => Partition::morton(mesh),
+    };
     let max_length = settings.max_length.max(1) as u32;
 
     // The ordering works on triangles renumbered in the hierarchy's leaf order (those
@@ -374,7 +459,36 @@ pub(super) fn walk(
 
 #[cfg(test)]
 mod tests {
-    use super::Node;
+    use super::{Node, Partition};
+    use crate::mesh::TriMesh;
+    use glam::Vec3;
+
+    #[test]
+    fn a_morton_partition_hangs_near_triangles_from_one_cell() {
+        // Two pairs of small triangles at opposite corners of the unit cube, and one
+        // with a NaN corner.
+        let corners = [
+            Vec3::ZERO,
+            Vec3::splat(0.001),
+            Vec3::ONE,
+            Vec3::splat(0.999),
+        ];
+        let mut positions = Vec::new();
+        for c in corners {
+            positions.extend([c, c + Vec3::X * 1e-4, c + Vec3::Y * 1e-4]);
+        }
+        positions.push(Vec3::NAN);
+        let triangles = vec![[0, 1, 2], [3, 4, 5], [6, 7, 8], [9, 10, 11], [0, 1, 12]];
+        let partition = Partition::morton(&TriMesh::new(positions, triangles));
+        let node = &partition.node_of;
+        assert_eq!(node[0], node[1]);
+        assert_eq!(node[2], node[3]);
+        assert!(node[0].depth > 5 && node[2].depth > 5, "{node:?}");
+        // The pairs part at the first octant.
+        assert_eq!(node[0].meet(node[2]).0, Node::ROOT);
+        assert_eq!(node[4], Node::ROOT);
+        assert_eq!(partition.leaf_order, [0, 1, 3, 2]);
+    }
 
     #[test]
     fn nodes_meet_at_their_common_prefix() {

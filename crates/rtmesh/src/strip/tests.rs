@@ -1,5 +1,5 @@
 use super::packed::PackedStrips;
-use super::sah::{stripify, StripSettings};
+use super::sah::{stripify, PartitionMethod, StripSettings};
 use super::*;
 use crate::scenes;
 use proptest::prelude::*;
@@ -72,6 +72,28 @@ fn grid_strips_approach_one_index_per_triangle() {
     assert_valid(&mesh, &strips, 64);
     let report = StripReport::of(&strips, 0.0);
     assert!(report.indices_per_triangle < 1.15, "{report:?}");
+}
+
+#[test]
+fn a_morton_partition_strips_a_grid_as_well() {
+    let mesh = scenes::quad_grid(40);
+    let strips = |partition| {
+        let settings = StripSettings {
+            partition,
+            ..Default::default()
+        };
+        let strips = stripify(&mesh, &settings);
+        assert_valid(&mesh, &strips, 32);
+        StripReport::of(&strips, 0.0).indices_per_triangle
+    };
+    let (sah, morton) = (
+        strips(PartitionMethod::Sah),
+        strips(PartitionMethod::Morton),
+    );
+    assert!(
+        morton < 1.15 && morton < sah * 1.05,
+        "{morton} against {sah}"
+    );
 }
 
 #[test]
@@ -153,11 +175,13 @@ proptest! {
         mesh in scenes::arbitrary_mesh(),
         max_length in 1usize..40,
         tunnel_cuts in 0..=tunnel::MAX_CUTS,
+        morton in proptest::bool::ANY,
     ) {
-        let strips = stripify(&mesh, &StripSettings { max_length, tunnel_cuts });
+        let partition = if morton { PartitionMethod::Morton } else { PartitionMethod::Sah };
+        let strips = stripify(&mesh, &StripSettings { max_length, tunnel_cuts, partition });
         assert_valid(&mesh, &strips, max_length);
         // Tunnelling only ever joins strips.
-        let published = stripify(&mesh, &StripSettings { max_length, tunnel_cuts: 0 });
+        let published = stripify(&mesh, &StripSettings { max_length, tunnel_cuts: 0, partition });
         prop_assert!(strips.len() <= published.len());
         let theirs = meshopt::stripify(&mesh, max_length);
         assert_valid(&mesh, &theirs.strips, max_length);

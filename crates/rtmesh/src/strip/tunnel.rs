@@ -38,6 +38,10 @@ struct Cover<'a> {
     links: &'a mut [[(u32, u8); 2]],
     /// A strip is named by one of its triangles.
     strip_of: Vec<u32>,
+    /// Each triangle's place in its strip, counted from the end [`Cover::relabel`]
+    /// walked it from, so that the length on either side of a link is two subtractions
+    /// (a walk along the strip took a fifth of the whole stripification).
+    place: Vec<u32>,
     /// Indexed by a strip's name.
     length: Vec<u32>,
 }
@@ -53,25 +57,20 @@ impl Cover<'_> {
         let mut length = 0;
         for (u, _) in walk(self.links, end) {
             self.strip_of[u as usize] = t;
+            self.place[u as usize] = length;
             length += 1;
         }
         self.length[t as usize] = length;
     }
 
-    /// Triangles from `from` onward, away from its neighbour `away`.
+    /// Triangles from `from` onward, away from its neighbour `away` in the same strip.
     fn length_beyond(&self, from: u32, away: u32) -> u32 {
-        let mut length = 0;
-        let (mut previous, mut current) = (away, from);
-        while current != NONE {
-            length += 1;
-            let next = self.links[current as usize]
-                .iter()
-                .find(|l| l.0 != NONE && l.0 != previous)
-                .map_or(NONE, |l| l.0);
-            previous = current;
-            current = next;
+        let (from_place, away_place) = (self.place[from as usize], self.place[away as usize]);
+        if from_place > away_place {
+            self.length[self.strip_of[from as usize] as usize] - from_place
+        } else {
+            from_place + 1
         }
-        length
     }
 
     fn unlink(&mut self, a: u32, b: u32) {
@@ -112,6 +111,7 @@ pub(super) fn tunnel(
     let mut cover = Cover {
         links,
         strip_of: vec![NONE; n],
+        place: vec![0; n],
         length: vec![0; n],
     };
     let mut strips = 0usize;

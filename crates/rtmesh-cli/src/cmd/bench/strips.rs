@@ -27,6 +27,10 @@ pub struct Args {
     /// ordering alone).
     #[arg(long, default_value_t = rtmesh::strip::sah::StripSettings::default().tunnel_cuts as u32, value_parser = clap::value_parser!(u32).range(0..=rtmesh::strip::tunnel::MAX_CUTS as i64))]
     tunnel_cuts: u32,
+    /// The hierarchy Strip-RT's ordering measures tree distances in: sah (as
+    /// published) or morton (the octree of the centroids' Morton codes).
+    #[arg(long, default_value = "sah")]
+    partition: rtmesh::strip::sah::PartitionMethod,
     /// Strips per BVH leaf (1..=15).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=15))]
     strips_per_leaf: u32,
@@ -70,6 +74,7 @@ pub fn run(args: Args) -> Result<()> {
     let table = StripTable {
         max_length: args.max_length as usize,
         tunnel_cuts: args.tunnel_cuts as usize,
+        partition: args.partition,
         strips_per_leaf: args.strips_per_leaf as usize,
         inside,
         kinds: ray_kinds(&args.rays),
