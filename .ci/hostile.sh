@@ -20,6 +20,7 @@ subcommands=(
   "convert $work/out.glb"
   "optimize -o $work/optimized.glb --size 64x64 --runs 1"
   "strip -o $work/strips.ply"
+  "strip --partition morton -o $work/morton-strips.ply"
   "strip --method meshopt -o $work/meshopt-strips.ply"
   "cluster --method contract"
   "cluster --method meshopt"
