@@ -31,7 +31,9 @@
 //! ([`contract`]) starts from one cluster per triangle and contracts the dual graph's
 //! edge of largest Acc(k₁ ∪ k₂) while it is positive. Both then merge the fragments
 //! they leave (clusters of under MaxCount / 2 triangles) into a neighbour the union
-//! fits ([`merge_small`]).
+//! fits ([`merge_small`]). Optionally (not in the slides; `refine_passes`, off by
+//! default), [`refine`] then moves border triangles between clusters where that
+//! lowers the clusters' SAH-like cost.
 //!
 //! **Storage** ([`Clusters`]): per cluster its list of global vertex indices (at most
 //! 256) and its triangles as three u8 indices into that list, with the input triangle
@@ -54,6 +56,7 @@
 mod contract;
 mod grow;
 pub mod meshopt;
+mod refine;
 
 pub use contract::contract;
 pub use grow::grow;
@@ -81,6 +84,9 @@ pub struct ClusterSettings {
     pub max_size: f32,
     /// Widest angle between a triangle's normal and the cluster's mean, degrees.
     pub max_normal_angle: f32,
+    /// Passes of boundary refinement after growing or contraction (not in the slides;
+    /// [`refine`]): 0 keeps the published clusters.
+    pub refine_passes: usize,
 }
 
 impl Default for ClusterSettings {
@@ -90,6 +96,7 @@ impl Default for ClusterSettings {
             max_vertices: 256,
             max_size: 2.0,
             max_normal_angle: 75.0,
+            refine_passes: 0,
         }
     }
 }
@@ -623,6 +630,7 @@ pub(crate) fn finish(
     settings: &ClusterSettings,
 ) -> Clusters {
     merge_small(mesh, adjacency, &mut groups, settings);
+    refine::refine(mesh, adjacency, &mut groups, settings);
     let mut out = Clusters {
         triangle_start: vec![0],
         vertex_start: vec![0],

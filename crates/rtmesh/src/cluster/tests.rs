@@ -293,6 +293,43 @@ fn meshopt_clusters_hold_every_triangle_once_within_limits() {
     );
 }
 
+/// A row of four unit quads, cut along their diagonals (quad i is triangles 2i and
+/// 2i + 1), clustered as quads 0–1 and half of quad 2 against the rest: refinement moves
+/// that half across (the first cluster's box shrinks from 3 to 2 units and the second's
+/// does not grow), and then nothing more.
+#[test]
+fn refinement_moves_the_triangle_that_stretches_a_box() {
+    let positions = (0..10)
+        .map(|i| Vec3::new((i / 2) as f32, (i % 2) as f32, 0.0))
+        .collect();
+    let triangles = (0..4u32)
+        .flat_map(|q| {
+            [
+                [2 * q, 2 * q + 2, 2 * q + 1],
+                [2 * q + 1, 2 * q + 2, 2 * q + 3],
+            ]
+        })
+        .collect();
+    let mesh = TriMesh::new(positions, triangles);
+    let adjacency = EdgeAdjacency::build(&mesh.topology());
+    let mut groups = vec![vec![0, 1, 2, 3, 4], vec![5, 6, 7]];
+    let settings = ClusterSettings {
+        refine_passes: 4,
+        ..ClusterSettings::default()
+    };
+    super::refine::refine(&mesh, &adjacency, &mut groups, &settings);
+    assert_eq!(groups, [vec![0, 1, 2, 3], vec![5, 6, 7, 4]]);
+    // No passes, no moves.
+    let mut unrefined = vec![vec![0, 1, 2, 3, 4], vec![5, 6, 7]];
+    super::refine::refine(
+        &mesh,
+        &adjacency,
+        &mut unrefined,
+        &ClusterSettings::default(),
+    );
+    assert_eq!(unrefined, [vec![0, 1, 2, 3, 4], vec![5, 6, 7]]);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
@@ -300,8 +337,8 @@ proptest! {
     /// in one cluster with its winding, clusters connected and within their limits, by
     /// both methods; meshoptimizer's hold every triangle once.
     #[test]
-    fn random_meshes_cluster_validly(mesh in crate::scenes::arbitrary_mesh(), max_triangles in 1usize..=MAX_CLUSTER_TRIANGLES) {
-        let settings = ClusterSettings { max_triangles, ..ClusterSettings::default() };
+    fn random_meshes_cluster_validly(mesh in crate::scenes::arbitrary_mesh(), max_triangles in 1usize..=MAX_CLUSTER_TRIANGLES, refine_passes in 0usize..4) {
+        let settings = ClusterSettings { max_triangles, refine_passes, ..ClusterSettings::default() };
         for method in BY_ACCEPTANCE {
             assert_valid(&mesh, &method.cluster(&mesh, &settings), &settings);
         }
@@ -313,9 +350,9 @@ proptest! {
 
     /// A grid with holes punched in it, at a small vertex limit.
     #[test]
-    fn grids_with_holes_cluster_validly(holes in proptest::collection::vec(0usize..800, 0..200), max_vertices in 3usize..40) {
+    fn grids_with_holes_cluster_validly(holes in proptest::collection::vec(0usize..800, 0..200), max_vertices in 3usize..40, refine_passes in 0usize..4) {
         let mesh = crate::scenes::grid_with_holes(&holes);
-        let settings = ClusterSettings { max_vertices, ..ClusterSettings::default() };
+        let settings = ClusterSettings { max_vertices, refine_passes, ..ClusterSettings::default() };
         for method in BY_ACCEPTANCE {
             let clusters = method.cluster(&mesh, &settings);
             assert_valid(&mesh, &clusters, &settings);
