@@ -543,6 +543,14 @@ const CLUSTER_KEYS: &[&str] = &[
 fn cluster_and_dynamic_keys() {
     let clusters = assert_keys(&["cluster", "builtin:blob", "--json"], CLUSTER_KEYS);
     assert_eq!(clusters[0]["triangles"], 99892);
+    let mut refined_keys = CLUSTER_KEYS.to_vec();
+    refined_keys.push("refine_passes");
+    let refined = assert_keys(
+        &["cluster", "builtin:blob", "--refine-passes", "2", "--json"],
+        &refined_keys,
+    );
+    assert_eq!(refined[0]["refine_passes"], 2);
+    assert_eq!(refined[0]["triangles"], 99892);
     for build in ["rebuild", "refit", "clusters"] {
         let dynamic = assert_keys(
             &[

@@ -55,6 +55,9 @@ pub fn settings(max_count: u32, max_size: f32, refine_passes: u32) -> ClusterSet
 pub struct Report {
     mesh: String,
     method: ClusterMethod,
+    /// Passes of boundary refinement (grow and contract; absent when none).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    refine_passes: Option<u32>,
     #[serde(flatten)]
     clusters: ClusterReport,
 }
@@ -90,17 +93,21 @@ pub fn run(args: Args) -> Result<()> {
     total.mean_vertices_per_triangle = vertices as f64 / total.triangles.max(1) as f64;
     let report = Report {
         mesh: args.mesh,
+        refine_passes: (args.refine_passes > 0 && args.method != ClusterMethod::Meshopt)
+            .then_some(args.refine_passes),
         method: args.method,
         clusters: total,
     };
     emit(&report, args.json, |r| {
         let c = &r.clusters;
         println!(
-            "{}: {} triangles in {} clusters by {} in {:.3} s ({:.3} µs per triangle)",
+            "{}: {} triangles in {} clusters by {}{} in {:.3} s ({:.3} µs per triangle)",
             r.mesh,
             c.triangles,
             c.clusters,
             r.method,
+            r.refine_passes
+                .map_or(String::new(), |p| format!(", refined in up to {p} passes")),
             c.seconds,
             1e6 * c.seconds / c.triangles.max(1) as f64
         );
