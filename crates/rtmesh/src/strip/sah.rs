@@ -71,7 +71,7 @@ pub enum PartitionMethod {
     #[default]
     Sah,
     /// An octree by the Morton codes of the triangles' centroids (not published): a
-    /// sort instead of a build, about a tenth of the SAH partition's time, for strips
+    /// sort instead of a build, about a twentieth of the SAH partition's time, for strips
     /// that trace 2–7% slower (`docs/measurements/strips.md`).
     Morton,
 }
