@@ -34,6 +34,9 @@ pub(super) fn refine(
     settings: &ClusterSettings,
 ) {
     let passes = settings.refine_passes;
+    if passes == 0 {
+        return;
+    }
     let n = mesh.triangle_count();
     let mut owner = vec![u32::MAX; n];
     for (g, triangles) in groups.iter().enumerate() {
