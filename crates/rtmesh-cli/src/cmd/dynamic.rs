@@ -106,7 +106,7 @@ pub struct Args {
     max_count: u32,
     /// Passes of boundary refinement after grow or contract (not in the slides): border
     /// triangles move to the neighbouring cluster where that lowers the clusters'
-    /// SAH-like cost (5% lower SAH on the dragon at 8, for about twice the precompute;
+    /// SAH-like cost (5% lower SAH on the dragon at 8, for 1.9× the precompute;
     /// docs/measurements/clusters.md). 0 keeps the published clusters.
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
     refine_passes: u32,
