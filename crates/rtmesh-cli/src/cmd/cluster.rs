@@ -29,23 +29,31 @@ pub struct Args {
     /// of its expected area.
     #[arg(long, default_value_t = 2.0)]
     max_size: f32,
-    /// Passes of boundary refinement after grow or contract (not in the slides): border
-    /// triangles move to the neighbouring cluster where that lowers the clusters'
-    /// SAH-like cost (5% lower SAH on the dragon at 8, for 1.9× the precompute;
-    /// docs/measurements/clusters.md). 0 keeps the published clusters.
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
-    refine_passes: u32,
+    #[command(flatten)]
+    refinement: Refinement,
     /// Print one JSON object instead of text.
     #[arg(long)]
     json: bool,
 }
 
-/// The settings `cluster` and `dynamic` share.
-pub fn settings(max_count: u32, max_size: f32, refine_passes: u32) -> ClusterSettings {
+/// Boundary refinement of the clusters, an option of `cluster`, `dynamic` and `bench
+/// clusters`.
+#[derive(clap::Args)]
+pub struct Refinement {
+    /// Passes of boundary refinement after grow or contract (not in the slides): border
+    /// triangles move to the neighbouring cluster where that lowers the clusters'
+    /// SAH-like cost (5% lower SAH on the dragon at 8, for 1.9× the precompute;
+    /// docs/measurements/clusters.md). 0 keeps the published clusters.
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
+    pub refine_passes: u32,
+}
+
+/// The settings `cluster`, `dynamic` and `bench clusters` share.
+pub fn settings(max_count: u32, max_size: f32, refinement: &Refinement) -> ClusterSettings {
     ClusterSettings {
         max_triangles: max_count as usize,
         max_size,
-        refine_passes: refine_passes as usize,
+        refine_passes: refinement.refine_passes as usize,
         ..ClusterSettings::default()
     }
 }
@@ -64,7 +72,7 @@ pub struct Report {
 
 /// Cluster every geometry (their figures summed) and report.
 pub fn run(args: Args) -> Result<()> {
-    let settings = settings(args.max_count, args.max_size, args.refine_passes);
+    let settings = settings(args.max_count, args.max_size, &args.refinement);
     let scene = load(&args.mesh)?;
     let start = std::time::Instant::now();
     let all: Vec<_> = scene
@@ -93,8 +101,8 @@ pub fn run(args: Args) -> Result<()> {
     total.mean_vertices_per_triangle = vertices as f64 / total.triangles.max(1) as f64;
     let report = Report {
         mesh: args.mesh,
-        refine_passes: (args.refine_passes > 0 && args.method != ClusterMethod::Meshopt)
-            .then_some(args.refine_passes),
+        refine_passes: (args.refinement.refine_passes > 0 && args.method != ClusterMethod::Meshopt)
+            .then_some(args.refinement.refine_passes),
         method: args.method,
         clusters: total,
     };

@@ -104,12 +104,8 @@ pub struct Args {
     /// MaxCount: most triangles per cluster (1..=256; at most 60 with --inside flat).
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
     max_count: u32,
-    /// Passes of boundary refinement after grow or contract (not in the slides): border
-    /// triangles move to the neighbouring cluster where that lowers the clusters'
-    /// SAH-like cost (5% lower SAH on the dragon at 8, for 1.9× the precompute;
-    /// docs/measurements/clusters.md). 0 keeps the published clusters.
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
-    refine_passes: u32,
+    #[command(flatten)]
+    refinement: super::cluster::Refinement,
     /// With --build clusters: flat (one leaf of all a cluster's triangles, as the
     /// slides) or node (8-wide nodes over the cluster's 4-triangle blocks, one level up
     /// to 32 triangles and two above, refitted each frame).
@@ -200,7 +196,7 @@ pub fn run(args: Args) -> Result<()> {
     let scene = load(&args.mesh)?;
     let (mesh, animation) = Animation::of(&scene, &args.motion)
         .with_context(|| format!("{}: --motion {}", args.mesh, args.motion))?;
-    let settings = super::cluster::settings(args.max_count, args.max_size, args.refine_passes);
+    let settings = super::cluster::settings(args.max_count, args.max_size, &args.refinement);
     let (clusters, precompute_ms) = if args.build == Build::Clusters {
         let start = std::time::Instant::now();
         let clusters = args.method.cluster(&mesh, &settings);

@@ -185,7 +185,7 @@ pub fn run(args: Args) -> Result<()> {
                 .map_or(String::new(), |c| format!(", tunnels of up to {c} cuts")),
             r.partition
                 .filter(|&p| p != sah::PartitionMethod::Sah)
-                .map_or(String::new(), |p| format!(", {p:?} partition").to_lowercase()),
+                .map_or(String::new(), |p| format!(", {} partition", p.name())),
             s.seconds,
             s.triangles as f64 / s.seconds.max(1e-9) / 1e6
         );

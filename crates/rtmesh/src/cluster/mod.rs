@@ -570,8 +570,7 @@ pub(crate) fn morton_order(mesh: &TriMesh) -> Vec<u32> {
     let bounds = mesh.bounds();
     let mut order: Vec<(u32, u32)> = (0..mesh.triangle_count() as u32)
         .map(|t| {
-            let c = mesh.corners(t as usize);
-            let centroid = (c[0] + c[1] + c[2]) / 3.0;
+            let centroid = mesh.centroid(t as usize);
             let code = if centroid.is_finite() {
                 morton(centroid, &bounds)
             } else {
@@ -671,6 +670,19 @@ pub(crate) fn split_into_blocks(mesh: &TriMesh, triangles: &mut [u32]) {
     split_into_blocks(mesh, high);
 }
 
+/// Distinct vertices of `triangles` (of `mesh`), counted against a cluster's limit.
+fn vertex_count<'a>(mesh: &TriMesh, triangles: impl Iterator<Item = &'a u32>) -> usize {
+    let mut seen: Vec<u32> = Vec::new();
+    for &t in triangles {
+        for &v in &mesh.triangles[t as usize] {
+            if !seen.contains(&v) {
+                seen.push(v);
+            }
+        }
+    }
+    seen.len()
+}
+
 /// Growing leaves fragments between the clusters it grew first. Merge each cluster of
 /// fewer than half of MaxCount triangles into the smallest neighbour (across a shared
 /// edge) that the union still fits (MaxCount triangles, the vertex limit), smallest
@@ -687,17 +699,6 @@ fn merge_small(
             owner[t as usize] = g as u32;
         }
     }
-    let vertex_count = |triangles: &[u32], more: &[u32]| {
-        let mut seen: Vec<u32> = Vec::with_capacity(3 * (triangles.len() + more.len()));
-        for &t in triangles.iter().chain(more) {
-            for &v in &mesh.triangles[t as usize] {
-                if !seen.contains(&v) {
-                    seen.push(v);
-                }
-            }
-        }
-        seen.len()
-    };
     let mut by_size: Vec<usize> = (0..groups.len()).collect();
     by_size.sort_by_key(|&g| (groups[g].len(), g));
     for g in by_size {
@@ -718,7 +719,8 @@ fn merge_small(
             .filter(|&h| {
                 let h = h as usize;
                 groups[h].len() + size <= settings.max_triangles
-                    && vertex_count(&groups[h], &groups[g]) <= settings.max_vertices
+                    && vertex_count(mesh, groups[h].iter().chain(&groups[g]))
+                        <= settings.max_vertices
             })
             .min_by_key(|&h| (groups[h as usize].len(), h));
         if let Some(h) = best {

@@ -20,7 +20,7 @@
 //! search), about 0.7 µs a triangle for 8 passes on the dragon, which nearly doubles
 //! growing's precompute (docs/measurements/clusters.md).
 
-use super::{edge_neighbours, ClusterSettings};
+use super::{edge_neighbours, vertex_count, ClusterSettings};
 use crate::geom::Aabb;
 use crate::mesh::{EdgeAdjacency, TriMesh};
 
@@ -76,12 +76,7 @@ pub(super) fn refine(
     let mut boxes: Vec<Aabb> = groups.iter().map(|g| box_without(g, u32::MAX)).collect();
     let mut vertices: Vec<usize> = groups
         .iter()
-        .map(|g| {
-            let mut v: Vec<u32> = g.iter().flat_map(|&t| mesh.triangles[t as usize]).collect();
-            v.sort_unstable();
-            v.dedup();
-            v.len()
-        })
+        .map(|g| vertex_count(mesh, g.iter()))
         .collect();
     let mut gains: Vec<(f32, u32)> = Vec::new();
     let mut mark = vec![0u32; n];

@@ -312,6 +312,13 @@ impl TriMesh {
         ]
     }
 
+    /// The centroid of triangle `t` (indices must be in range).
+    #[inline]
+    pub fn centroid(&self, t: usize) -> Vec3 {
+        let [a, b, c] = self.corners(t);
+        (a + b + c) / 3.0
+    }
+
     /// The corners of triangle `t` when its indices are in range and its corners
     /// finite (what the tracer keeps); `None` otherwise.
     #[inline]

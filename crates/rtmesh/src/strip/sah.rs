@@ -76,6 +76,27 @@ pub enum PartitionMethod {
     Morton,
 }
 
+impl PartitionMethod {
+    /// The name `--partition` takes and the JSON reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Sah => "sah",
+            Self::Morton => "morton",
+        }
+    }
+}
+
+impl std::str::FromStr for PartitionMethod {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<Self, String> {
+        [Self::Sah, Self::Morton]
+            .into_iter()
+            .find(|p| p.name() == name)
+            .ok_or_else(|| format!("the partition is sah or morton, not `{name}`"))
+    }
+}
+
 impl Default for StripSettings {
     fn default() -> Self {
         Self {
@@ -88,18 +109,6 @@ impl Default for StripSettings {
 
 /// Levels below the root that a [`Node`]'s path holds.
 const PATH_LEVELS: u32 = 21;
-
-impl std::str::FromStr for PartitionMethod {
-    type Err = String;
-
-    fn from_str(name: &str) -> Result<Self, String> {
-        match name {
-            "sah" => Ok(Self::Sah),
-            "morton" => Ok(Self::Morton),
-            other => Err(format!("the partition is sah or morton, not `{other}`")),
-        }
-    }
-}
 
 /// A node of the partition, named by its path from the root: the child slot (0..8) it
 /// takes at each level, three bits a level from the top bit down, and its depth (the
@@ -195,12 +204,7 @@ impl Partition {
     /// one 8-wide node share that node in the SAH partition. Cost: one sort of T codes.
     fn morton(mesh: &TriMesh) -> Self {
         let n = mesh.triangle_count();
-        let centroids: Vec<Vec3> = (0..n)
-            .map(|t| {
-                let c = mesh.corners(t);
-                (c[0] + c[1] + c[2]) / 3.0
-            })
-            .collect();
+        let centroids: Vec<Vec3> = (0..n).map(|t| mesh.centroid(t)).collect();
         let bounds = Aabb::from_points(centroids.iter().filter(|c| c.is_finite()));
         let last = (1u32 << PATH_LEVELS) - 1;
         let scale = last as f32 / bounds.extent().max_element().max(f32::MIN_POSITIVE);

@@ -33,12 +33,8 @@ pub struct Args {
     /// MaxSize of grow and contract.
     #[arg(long, default_value_t = 2.0)]
     max_size: f32,
-    /// Passes of boundary refinement after grow or contract (not in the slides): border
-    /// triangles move to the neighbouring cluster where that lowers the clusters'
-    /// SAH-like cost (5% lower SAH on the dragon at 8, for 1.9× the precompute;
-    /// docs/measurements/clusters.md). 0 keeps the published clusters.
-    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=64))]
-    refine_passes: u32,
+    #[command(flatten)]
+    refinement: crate::cmd::cluster::Refinement,
     /// Phases of the motion, comma separated (0 is the rest pose).
     #[arg(long, value_delimiter = ',', default_value = "0,0.5,1")]
     phases: Vec<f32>,
@@ -53,7 +49,7 @@ pub struct Args {
 /// Measure each mesh and print its rows.
 pub fn run(args: Args) -> Result<()> {
     let table = ClusterTable {
-        settings: crate::cmd::cluster::settings(args.max_count, args.max_size, args.refine_passes),
+        settings: crate::cmd::cluster::settings(args.max_count, args.max_size, &args.refinement),
         phases: args.phases.clone(),
     };
     if !args.json {
