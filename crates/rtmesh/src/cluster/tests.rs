@@ -330,6 +330,39 @@ fn refinement_moves_the_triangle_that_stretches_a_box() {
     assert_eq!(unrefined, [vec![0, 1, 2, 3, 4], vec![5, 6, 7]]);
 }
 
+#[test]
+fn blocks_follow_the_area_heuristic_not_the_widest_axis() {
+    // Two columns of four small triangles, 1.2 apart in x, rows 1 apart in y. The
+    // centroids spread widest in y, whose median would make two 1.3 × 1.1 squares;
+    // the columns' boxes (0.1 × 3.1) cost a fifth of that.
+    let mut positions = Vec::new();
+    let mut triangles = Vec::new();
+    for (i, column) in [1.2f32, 0.0].into_iter().enumerate() {
+        for row in [2.0f32, 0.0, 3.0, 1.0] {
+            let v = positions.len() as u32;
+            positions.extend(
+                [(0.0, 0.0), (0.1, 0.0), (0.0, 0.1)]
+                    .map(|(x, y)| Vec3::new(column + x, row + y, 0.0)),
+            );
+            triangles.push([v, v + 1, v + 2]);
+        }
+        assert_eq!(triangles.len(), 4 * (i + 1));
+    }
+    let mesh = TriMesh::new(positions, triangles);
+    let mut order: Vec<u32> = (0..8).collect();
+    split_into_blocks(&mesh, &mut order);
+    // The x = 0 column first (ids 4..8); a block of four is not split again, so each
+    // column keeps its order.
+    assert_eq!(order, [4, 5, 6, 7, 0, 1, 2, 3]);
+    // Non-finite corners still split into whole blocks, each triangle once.
+    let mut broken = mesh.clone();
+    broken.positions[0] = Vec3::NAN;
+    let mut order: Vec<u32> = (0..8).collect();
+    split_into_blocks(&broken, &mut order);
+    order.sort_unstable();
+    assert_eq!(order, (0..8).collect::<Vec<u32>>());
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
