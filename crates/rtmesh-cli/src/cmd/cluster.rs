@@ -27,7 +27,7 @@ pub struct Args {
     max_count: u32,
     /// MaxSize: the cluster's bounding radius may reach this times the radius of a disk
     /// of its expected area.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = rtmesh::cluster::DEFAULT_MAX_SIZE)]
     max_size: f32,
     #[command(flatten)]
     refinement: Refinement,

@@ -99,7 +99,7 @@ pub struct Args {
     #[arg(long, default_value = "grow")]
     method: ClusterMethod,
     /// MaxSize of the clusters.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = rtmesh::cluster::DEFAULT_MAX_SIZE)]
     max_size: f32,
     /// MaxCount: most triangles per cluster (1..=256; at most 60 with --inside flat).
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]

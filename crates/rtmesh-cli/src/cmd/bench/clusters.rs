@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u32).range(1..=256))]
     max_count: u32,
     /// MaxSize of grow and contract.
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = rtmesh::cluster::DEFAULT_MAX_SIZE)]
     max_size: f32,
     #[command(flatten)]
     refinement: crate::cmd::cluster::Refinement,
