@@ -13,11 +13,12 @@ fn rtmesh(args: &[&str]) -> Output {
         .expect("run rtmesh")
 }
 
-/// A scratch folder of this test process.
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("rtmesh-contract-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A scratch folder of this test, removed when it is dropped.
+fn scratch(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix(&format!("rtmesh-contract-{name}-"))
+        .tempdir()
+        .unwrap()
 }
 
 /// Run `args`, which must succeed, and check that stdout's JSON object (or each of its
@@ -98,7 +99,7 @@ fn info_convert_pair_lint_repair_keys() {
         "document",
     ];
     assert_keys(&["info", "builtin:grid", "--json"], &info);
-    let glb = dir.join("room.glb");
+    let glb = dir.path().join("room.glb");
     let glb = glb.to_str().unwrap();
     assert_keys(
         &["convert", "builtin:room", glb, "--json"],
@@ -180,7 +181,6 @@ fn info_convert_pair_lint_repair_keys() {
             .collect::<Vec<_>>(),
     );
     assert!(skipped[0]["trace"].is_null());
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -231,7 +231,7 @@ fn trace_render_demo_keys() {
             ]
         );
     }
-    let png = dir.join("blob.png");
+    let png = dir.path().join("blob.png");
     let png = png.to_str().unwrap();
     assert_keys(
         &[
@@ -267,7 +267,7 @@ fn trace_render_demo_keys() {
             "scale_max",
         ],
     );
-    let demo_dir = dir.join("demo");
+    let demo_dir = dir.path().join("demo");
     let demo = assert_keys(
         &["demo", "-o", demo_dir.to_str().unwrap(), "--json"],
         &[
@@ -298,7 +298,6 @@ fn trace_render_demo_keys() {
         ],
     );
     assert_eq!(demo.len(), 4);
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -659,7 +658,7 @@ fn strip_and_bench_strips_keys_and_files() {
         "output",
     ];
     for (method, ext) in [("sah", "ply"), ("sah", "rts"), ("meshopt", "ply")] {
-        let out = dir.join(format!("grid-{method}.{ext}"));
+        let out = dir.path().join(format!("grid-{method}.{ext}"));
         let mut expected: Vec<&str> = keys.to_vec();
         if ext == "ply" {
             expected.push("degenerate_not_written");
@@ -693,7 +692,7 @@ fn strip_and_bench_strips_keys_and_files() {
         }
     }
     // glTF keeps the scene: the room's instances and materials, its surface whole.
-    let gltf = dir.join("room.glb");
+    let gltf = dir.path().join("room.glb");
     let mut expected: Vec<&str> = keys.to_vec();
     expected.extend(["degenerate_not_written", "tunnel_cuts", "partition"]);
     let report = assert_keys(
@@ -714,7 +713,7 @@ fn strip_and_bench_strips_keys_and_files() {
         assert!(source[key].as_u64().is_some_and(|n| n > 0), "{key}");
         assert_eq!(info[key], source[key], "{key}");
     }
-    let bad = dir.join("grid.stl");
+    let bad = dir.path().join("grid.stl");
     let out = rtmesh(&["strip", "builtin:grid", "-o", bad.to_str().unwrap()]);
     assert_eq!(
         out.status.code(),
@@ -780,7 +779,7 @@ fn animate_writes_every_frame_readable() {
             "--frames",
             "3",
             "-o",
-            dir.to_str().unwrap(),
+            dir.path().to_str().unwrap(),
             "--format",
             "ply",
             "--json",
@@ -803,7 +802,7 @@ fn animate_writes_every_frame_readable() {
         "--motion",
         "twist",
         "-o",
-        dir.to_str().unwrap(),
+        dir.path().to_str().unwrap(),
         "--format",
         "xyz",
     ]);
@@ -846,7 +845,7 @@ fn gltf_animation_traces_and_bakes() {
         "--frames",
         "3",
         "-o",
-        dir.to_str().unwrap(),
+        dir.path().to_str().unwrap(),
         "--json",
     ]);
     for file in report["files"].as_array().unwrap() {

@@ -12,7 +12,7 @@ use rtmesh::mesh::VertexAttribute;
 use rtmesh::pair::{pair_scene_mapped, PairSettings};
 use rtmesh::repair::{repair, RepairSettings};
 use rtmesh::{Scene, TriMesh};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// A corner as bits: the position, then every attribute's values by name.
 type Corner = ([u32; 3], Vec<(String, Vec<u64>)>);
@@ -76,19 +76,20 @@ fn assert_same_flat(out: &Scene, input: &Scene, what: &str) {
     );
 }
 
-fn temp_dir() -> PathBuf {
-    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let dir = std::env::temp_dir().join(format!("rtmesh-attributes-{}-{call}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh folder, removed when it is dropped.
+fn temp_dir() -> tempfile::TempDir {
+    tempfile::Builder::new()
+        .prefix("rtmesh-attributes-")
+        .tempdir()
+        .unwrap()
 }
 
 /// Write `scene` as `name` into a fresh folder and read it back; with glTF, which asks
 /// for unit normals, also `scene` with its normals as the writer normalizes them (the
 /// oracle: those more than 1e-4 from unit length, renormalized).
 fn written(scene: &Scene, name: &str) -> Scene {
-    let path = temp_dir().join(name);
+    let dir = temp_dir();
+    let path = dir.path().join(name);
     write(scene, &path).unwrap_or_else(|e| panic!("{e}"));
     read(&path).unwrap_or_else(|e| panic!("{e}"))
 }
@@ -377,7 +378,8 @@ fn skinned_models_keep_joints_weights_and_animations() {
         );
         // Files from other tools may carry weights that do not sum to one, which the
         // writer must normalize (counted); compare those that do.
-        let out = temp_dir().join("skinned.glb");
+        let dir = temp_dir();
+        let out = dir.path().join("skinned.glb");
         let notes = write(&scene, &out).unwrap();
         let back = read(&out).unwrap();
         assert_document_parts_equal(&back, &scene, &what);
