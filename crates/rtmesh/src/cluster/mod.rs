@@ -575,7 +575,8 @@ fn morton(p: Vec3, bounds: &Aabb) -> u32 {
 /// surface.
 pub(crate) fn morton_order(mesh: &TriMesh) -> Vec<u32> {
     let bounds = mesh.bounds();
-    let mut order: Vec<(u32, u32)> = (0..mesh.triangle_count() as u32)
+    // The code above the triangle id, so that one integer sort orders both.
+    let mut order: Vec<u64> = (0..mesh.triangle_count() as u32)
         .map(|t| {
             let centroid = mesh.centroid(t as usize);
             let code = if centroid.is_finite() {
@@ -583,11 +584,11 @@ pub(crate) fn morton_order(mesh: &TriMesh) -> Vec<u32> {
             } else {
                 u32::MAX
             };
-            (code, t)
+            u64::from(code) << 32 | u64::from(t)
         })
         .collect();
     order.par_sort_unstable();
-    order.into_iter().map(|(_, t)| t).collect()
+    order.into_iter().map(|key| key as u32).collect()
 }
 
 /// What both methods by Acc(k) start from, `settings` checked: the mesh's edge
