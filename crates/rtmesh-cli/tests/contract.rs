@@ -595,6 +595,40 @@ fn cluster_and_dynamic_keys() {
             assert!(frames[0].get(key).is_some(), "{build}: {key}");
         }
     }
+    // Several builds in turn: one line a build, against the first; on the blob every
+    // rtmesh build hits what the rebuild hits.
+    let several = "dynamic builtin:blob --motion explode --frames 3 --build rebuild,refit,clusters --rounds 2 --size 32x32 --runs 1 --json";
+    let sides = assert_keys(
+        &several.split(' ').collect::<Vec<_>>(),
+        &[
+            "mesh",
+            "motion",
+            "build",
+            "rounds",
+            "build_ms",
+            "build_speedup",
+            "trace_ms",
+            "trace_speedup",
+            "same_checksums",
+        ],
+    );
+    let builds: Vec<&str> = sides.iter().map(|s| s["build"].as_str().unwrap()).collect();
+    assert_eq!(builds, ["rebuild", "refit", "clusters"]);
+    for side in &sides {
+        assert_eq!(side["rounds"], 2);
+        assert_eq!(side["trace_ms"].as_array().unwrap().len(), 3);
+        assert_eq!(side["same_checksums"], true, "{side}");
+    }
+    assert_eq!(sides[0]["build_speedup"], 1.0);
+    let no_frames = rtmesh(&[
+        "dynamic",
+        "builtin:blob",
+        "--motion",
+        "twist",
+        "--frames",
+        "0",
+    ]);
+    assert_eq!(no_frames.status.code(), Some(1));
     let unknown = rtmesh(&["cluster", "builtin:blob", "--method", "fancy"]);
     assert_eq!(unknown.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&unknown.stderr).contains("use grow, contract or meshopt"));

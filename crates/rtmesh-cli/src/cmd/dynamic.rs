@@ -3,15 +3,15 @@
 
 use super::trace::Packets;
 use crate::args::{load, parse_size, Rays};
-use crate::output::{emit, steps_bar};
+use crate::output::{emit, json_line, steps_bar};
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use rtmesh::animate::{Animation, Motion};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::cluster::{ClusterFrames, ClusterMethod, Inside, MAX_FLAT_TRIANGLES};
+use rtmesh::cluster::{ClusterFrames, ClusterMethod, Clusters, Inside, MAX_FLAT_TRIANGLES};
 use rtmesh::progress::Progress;
 use rtmesh::trace::intersect::IntersectorKind;
-use rtmesh::trace::measure::{measure, measure_packets_by_kind};
+use rtmesh::trace::measure::{measure, measure_packets_by_kind, median};
 use rtmesh::trace::{RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
 use serde::Serialize;
@@ -44,6 +44,12 @@ pub enum Build {
 }
 
 impl Build {
+    /// The build's name on the command line.
+    fn name(self) -> String {
+        self.to_possible_value()
+            .map_or_else(String::new, |v| v.get_name().to_owned())
+    }
+
     /// The Embree quality this build stands for, if it is Embree's.
     #[cfg(feature = "embree")]
     fn embree(self) -> Option<rtmesh_lab::embree::Quality> {
@@ -91,9 +97,14 @@ pub struct Args {
     #[arg(long, default_value_t = 8)]
     frames: usize,
     /// rebuild, refit or clusters; with --features embree also embree-low, embree-medium
-    /// and embree-refit (Embree 3 on the same rays; its SAH is not known: NaN).
-    #[arg(long, value_enum, default_value = "clusters")]
-    build: Build,
+    /// and embree-refit (Embree 3 on the same rays; its SAH is not known: NaN). Several,
+    /// comma separated, are run in turn for --rounds and compared with the first in one
+    /// table of medians (JSON: one line a build).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "clusters")]
+    build: Vec<Build>,
+    /// With several builds: rounds of all of them in turn (medians are reported).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u64).range(1..=100))]
+    rounds: u64,
     /// Clustering method: grow or contract (by Acc(k)), or meshopt (meshoptimizer's
     /// spatial clusters).
     #[arg(long, default_value = "grow")]
@@ -186,26 +197,20 @@ impl Frame {
     }
 }
 
-/// Animate, build, trace, report.
+/// Animate, build, trace, report; several builds are alternated over `--rounds`.
 pub fn run(args: Args) -> Result<()> {
     let kind = RayKind::from(args.rays);
     if kind == RayKind::Shadow {
         bail!("--rays shadow is not measured by dynamic: use primary or diffuse");
+    }
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
     }
     let side = args.packet.side(kind, true);
     let scene = load(&args.mesh)?;
     let (mesh, animation) = Animation::of(&scene, &args.motion)
         .with_context(|| format!("{}: --motion {}", args.mesh, args.motion))?;
     let settings = super::cluster::settings(args.max_count, args.max_size, &args.refinement);
-    let (clusters, precompute_ms) = if args.build == Build::Clusters {
-        let start = std::time::Instant::now();
-        let clusters = args.method.cluster(&mesh, &settings);
-        (Some(clusters), Some(1e3 * start.elapsed().as_secs_f64()))
-    } else {
-        (None, None)
-    };
-    let bar = steps_bar(args.frames);
-    let mut refitted: Option<SceneAccel> = None;
     let inside = match args.inside {
         InsideArg::Flat => Inside::Flat,
         InsideArg::Node => Inside::Node,
@@ -216,98 +221,263 @@ pub fn run(args: Args) -> Result<()> {
             args.max_count
         );
     }
-    let mut cluster_frames = clusters
-        .as_ref()
-        .map(|c| ClusterFrames::new(c, inside, &mesh));
-    #[cfg(feature = "embree")]
-    let mut embree: Option<rtmesh_lab::embree::EmbreeScene> = None;
-    let mut frames = Vec::with_capacity(args.frames);
-    for f in 0..args.frames {
-        bar.message(&format!("frame {f}"));
-        let mut frame = mesh.clone();
-        frame.positions = animation.positions(f as f32 / (args.frames.max(2) - 1) as f32);
-        let frame_scene = Scene::from_mesh(frame);
-        #[cfg(feature = "embree")]
-        if let Some(quality) = args.build.embree() {
-            // Embree's own timing of its build or commit; SAH is not known for it.
-            let build_ms = match embree.as_mut() {
-                Some(e) => 1e3 * e.update_positions(0, &frame_scene.meshes[0].positions)?,
-                None => {
-                    let threads = rayon::current_num_threads();
-                    let e = rtmesh_lab::embree::EmbreeScene::build_dynamic(
-                        &frame_scene,
-                        quality,
-                        threads,
-                    )?;
-                    let ms = 1e3 * e.build_seconds;
-                    embree = Some(e);
-                    ms
-                }
-            };
-            let e = embree.as_ref().expect("built above");
-            let work = Workload::generate(kind, &frame_scene, e, args.size.0, args.size.1, 1);
-            let run = measure(e, &work, args.runs);
-            frames.push(Frame::of(f, build_ms, &run, f32::NAN));
-            bar.advance(1);
-            continue;
-        }
+    let (clusters, precompute_ms) = if args.build.contains(&Build::Clusters) {
         let start = std::time::Instant::now();
-        let accel = match args.build {
-            Build::Rebuild => SceneAccel::build(&frame_scene, &BuildSettings::default()),
-            Build::Refit => {
-                let mut accel = refitted
-                    .take()
-                    .unwrap_or_else(|| SceneAccel::build(&frame_scene, &BuildSettings::default()));
-                accel.refit(&frame_scene);
-                accel
-            }
-            #[cfg(feature = "embree")]
-            Build::EmbreeLow | Build::EmbreeMedium | Build::EmbreeRefit => {
-                unreachable!("traced above")
-            }
-            Build::Clusters => cluster_frames
-                .as_mut()
-                .expect("clusters were found")
-                .build(&frame_scene.meshes[0]),
-        };
-        let build_ms = 1e3 * start.elapsed().as_secs_f64();
-        let work = Workload::generate(kind, &frame_scene, &accel, args.size.0, args.size.1, 1);
-        let run = if side > 1 {
-            let (packed, starts) = work.grouped(side);
-            let intersector = IntersectorKind::MollerPacket;
-            measure_packets_by_kind(intersector, &accel, &packed, &starts, args.runs)
-        } else {
-            measure(&accel, &work, args.runs)
-        };
-        frames.push(Frame::of(f, build_ms, &run, accel.stats().sah_cost));
-        if args.build == Build::Refit {
-            refitted = Some(accel);
-        } else if let Some(frames) = cluster_frames.as_mut() {
-            frames.recycle(accel);
+        let clusters = args.method.cluster(&mesh, &settings);
+        (Some(clusters), Some(1e3 * start.elapsed().as_secs_f64()))
+    } else {
+        (None, None)
+    };
+    let rounds = if args.build.len() > 1 {
+        args.rounds as usize
+    } else {
+        1
+    };
+    let bar = steps_bar(args.frames * args.build.len() * rounds);
+    let play = Play {
+        args: &args,
+        kind,
+        side,
+        mesh: &mesh,
+        animation: &animation,
+        inside,
+        bar: &bar,
+    };
+    let mut reports: Vec<Vec<Report>> = args.build.iter().map(|_| Vec::new()).collect();
+    for _ in 0..rounds {
+        for (b, &build) in args.build.iter().enumerate() {
+            let frames = play.frames(build, clusters.as_ref())?;
+            let is_clusters = build == Build::Clusters;
+            reports[b].push(Report {
+                mesh: args.mesh.clone(),
+                motion: args.motion.clone(),
+                build,
+                ray_kind: kind.name(),
+                packet: match side {
+                    1 => "none".to_owned(),
+                    side => format!("{side}x{side}"),
+                },
+                triangles: mesh.triangle_count(),
+                clusters: clusters.as_ref().filter(|_| is_clusters).map(|c| c.len()),
+                precompute_ms: precompute_ms.filter(|_| is_clusters),
+                total: Total {
+                    build_ms: frames.iter().map(|f| f.build_ms).sum(),
+                    trace_ms: frames.iter().map(|f| f.trace_ms).sum(),
+                },
+                frames,
+            });
         }
-        bar.advance(1);
     }
     bar.0.finish_and_clear();
-    let total = Total {
-        build_ms: frames.iter().map(|f| f.build_ms).sum(),
-        trace_ms: frames.iter().map(|f| f.trace_ms).sum(),
-    };
-    let report = Report {
-        mesh: args.mesh,
-        motion: args.motion.clone(),
-        build: args.build,
-        ray_kind: kind.name(),
-        packet: match side {
-            1 => "none".to_owned(),
-            side => format!("{side}x{side}"),
-        },
-        triangles: mesh.triangle_count(),
-        clusters: clusters.as_ref().map(|c| c.len()),
-        precompute_ms,
-        frames,
-        total,
-    };
-    emit(&report, args.json, print)
+    if let [report] = &reports[..] {
+        return emit(&report[0], args.json, print);
+    }
+    let sides = Side::of_all(&reports);
+    if args.json {
+        for side in &sides {
+            println!("{}", json_line(side));
+        }
+    } else {
+        print_sides(&reports[0][0], rounds, &sides);
+    }
+    Ok(())
+}
+
+/// What every build's frames share.
+struct Play<'a> {
+    args: &'a Args,
+    kind: RayKind,
+    side: usize,
+    mesh: &'a rtmesh::TriMesh,
+    animation: &'a Animation,
+    inside: Inside,
+    bar: &'a crate::output::Bar,
+}
+
+impl Play<'_> {
+    /// Every frame built by `build` and traced.
+    fn frames(&self, build: Build, clusters: Option<&Clusters>) -> Result<Vec<Frame>> {
+        let args = self.args;
+        let mut refitted: Option<SceneAccel> = None;
+        let mut cluster_frames = clusters
+            .filter(|_| build == Build::Clusters)
+            .map(|c| ClusterFrames::new(c, self.inside, self.mesh));
+        #[cfg(feature = "embree")]
+        let mut embree: Option<rtmesh_lab::embree::EmbreeScene> = None;
+        let mut frames = Vec::with_capacity(args.frames);
+        for f in 0..args.frames {
+            self.bar.message(&format!("{}, frame {f}", build.name()));
+            let mut frame = self.mesh.clone();
+            frame.positions = self
+                .animation
+                .positions(f as f32 / (args.frames.max(2) - 1) as f32);
+            let frame_scene = Scene::from_mesh(frame);
+            #[cfg(feature = "embree")]
+            if let Some(quality) = build.embree() {
+                // Embree's own timing of its build or commit; SAH is not known for it.
+                let build_ms = match embree.as_mut() {
+                    Some(e) => 1e3 * e.update_positions(0, &frame_scene.meshes[0].positions)?,
+                    None => {
+                        let threads = rayon::current_num_threads();
+                        let e = rtmesh_lab::embree::EmbreeScene::build_dynamic(
+                            &frame_scene,
+                            quality,
+                            threads,
+                        )?;
+                        let ms = 1e3 * e.build_seconds;
+                        embree = Some(e);
+                        ms
+                    }
+                };
+                let e = embree.as_ref().expect("built above");
+                let (width, height) = args.size;
+                let work = Workload::generate(self.kind, &frame_scene, e, width, height, 1);
+                let run = measure(e, &work, args.runs);
+                frames.push(Frame::of(f, build_ms, &run, f32::NAN));
+                self.bar.advance(1);
+                continue;
+            }
+            let start = std::time::Instant::now();
+            let accel = match build {
+                Build::Rebuild => SceneAccel::build(&frame_scene, &BuildSettings::default()),
+                Build::Refit => {
+                    let mut accel = refitted.take().unwrap_or_else(|| {
+                        SceneAccel::build(&frame_scene, &BuildSettings::default())
+                    });
+                    accel.refit(&frame_scene);
+                    accel
+                }
+                #[cfg(feature = "embree")]
+                Build::EmbreeLow | Build::EmbreeMedium | Build::EmbreeRefit => {
+                    unreachable!("traced above")
+                }
+                Build::Clusters => cluster_frames
+                    .as_mut()
+                    .expect("clusters were found")
+                    .build(&frame_scene.meshes[0]),
+            };
+            let build_ms = 1e3 * start.elapsed().as_secs_f64();
+            let (width, height) = args.size;
+            let work = Workload::generate(self.kind, &frame_scene, &accel, width, height, 1);
+            let run = if self.side > 1 {
+                let (packed, starts) = work.grouped(self.side);
+                let intersector = IntersectorKind::MollerPacket;
+                measure_packets_by_kind(intersector, &accel, &packed, &starts, args.runs)
+            } else {
+                measure(&accel, &work, args.runs)
+            };
+            frames.push(Frame::of(f, build_ms, &run, accel.stats().sah_cost));
+            if build == Build::Refit {
+                refitted = Some(accel);
+            } else if let Some(frames) = cluster_frames.as_mut() {
+                frames.recycle(accel);
+            }
+            self.bar.advance(1);
+        }
+        Ok(frames)
+    }
+}
+
+/// One build against the first one listed, medians over the rounds.
+#[derive(Serialize)]
+struct Side {
+    mesh: String,
+    motion: Motion,
+    build: Build,
+    rounds: usize,
+    /// Build ms a frame: the median over the frames after the first (frame 0 is a full
+    /// build for refits), then over the rounds.
+    build_ms: f64,
+    /// The first build's `build_ms` over this one's.
+    build_speedup: f64,
+    /// Trace ms of each frame, medians over the rounds.
+    trace_ms: Vec<f64>,
+    /// The first build's summed trace ms over this one's.
+    trace_speedup: f64,
+    /// Whether every frame's hit checksum equals the first build's (a ray that meets
+    /// two triangles at the same distance, on a shared edge, may name either, so
+    /// different trees over the same frame can differ here).
+    same_checksums: bool,
+}
+
+impl Side {
+    /// The sides of every build's reports (one a round).
+    fn of_all(reports: &[Vec<Report>]) -> Vec<Side> {
+        let build_ms = |runs: &[Report]| {
+            let per_round: Vec<f64> = runs
+                .iter()
+                .map(|r| {
+                    let skip = usize::from(r.frames.len() > 1);
+                    let later: Vec<f64> = r.frames.iter().skip(skip).map(|f| f.build_ms).collect();
+                    median(&later)
+                })
+                .collect();
+            median(&per_round)
+        };
+        let trace_ms = |runs: &[Report]| -> Vec<f64> {
+            (0..runs[0].frames.len())
+                .map(|f| {
+                    let per_round: Vec<f64> = runs.iter().map(|r| r.frames[f].trace_ms).collect();
+                    median(&per_round)
+                })
+                .collect()
+        };
+        let first = &reports[0];
+        let (first_build, first_trace) = (build_ms(first), trace_ms(first).iter().sum::<f64>());
+        reports
+            .iter()
+            .map(|runs| {
+                let r = &runs[0];
+                let trace = trace_ms(runs);
+                Side {
+                    mesh: r.mesh.clone(),
+                    motion: r.motion.clone(),
+                    build: r.build,
+                    rounds: runs.len(),
+                    build_ms: build_ms(runs),
+                    build_speedup: first_build / build_ms(runs),
+                    trace_speedup: first_trace / trace.iter().sum::<f64>(),
+                    trace_ms: trace,
+                    same_checksums: runs.iter().all(|run| {
+                        run.frames
+                            .iter()
+                            .zip(&first[0].frames)
+                            .all(|(a, b)| a.hit_checksum == b.hit_checksum)
+                    }),
+                }
+            })
+            .collect()
+    }
+}
+
+fn print_sides(r: &Report, rounds: usize, sides: &[Side]) {
+    println!(
+        "{}: {} triangles, {} over {} frames, {} rays, packets {}, {} rounds of the builds in turn (medians; × is against {})",
+        r.mesh,
+        r.triangles,
+        r.motion,
+        r.frames.len(),
+        r.ray_kind,
+        r.packet,
+        rounds,
+        sides[0].build.name()
+    );
+    println!(
+        "{:<14} {:>10} {:>8} {:>9} {:>10}  trace ms by frame",
+        "build", "build ms", "×", "trace ×", "same sums"
+    );
+    for side in sides {
+        let trace: Vec<String> = side.trace_ms.iter().map(|t| format!("{t:.2}")).collect();
+        println!(
+            "{:<14} {:>10.2} {:>8.2} {:>9.2} {:>10}  {}",
+            side.build.name(),
+            side.build_ms,
+            side.build_speedup,
+            side.trace_speedup,
+            if side.same_checksums { "yes" } else { "no" },
+            trace.join(" ")
+        );
+    }
 }
 
 fn print(r: &Report) {
