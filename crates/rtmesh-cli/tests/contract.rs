@@ -609,7 +609,7 @@ fn cluster_and_dynamic_keys() {
             "build_speedup",
             "trace_ms",
             "trace_speedup",
-            "same_checksums",
+            "same_hits",
         ],
     );
     let builds: Vec<&str> = sides.iter().map(|s| s["build"].as_str().unwrap()).collect();
@@ -617,7 +617,7 @@ fn cluster_and_dynamic_keys() {
     for side in &sides {
         assert_eq!(side["rounds"], 2);
         assert_eq!(side["trace_ms"].as_array().unwrap().len(), 3);
-        assert_eq!(side["same_checksums"], true, "{side}");
+        assert_eq!(side["same_hits"], 1.0, "{side}");
     }
     assert_eq!(sides[0]["build_speedup"], 1.0);
     let no_frames = rtmesh(&[

@@ -12,8 +12,10 @@ use rtmesh::cluster::{ClusterFrames, ClusterMethod, Clusters, Inside, MAX_FLAT_T
 use rtmesh::progress::Progress;
 use rtmesh::trace::intersect::IntersectorKind;
 use rtmesh::trace::measure::{measure, measure_packets_by_kind, median};
-use rtmesh::trace::{RayKind, SceneAccel, Workload};
+use rtmesh::trace::run::trace_closest;
+use rtmesh::trace::{Hit, NoCounters, RayKind, SceneAccel, Workload};
 use rtmesh::Scene;
+use rtmesh_lab::harness::same_triangle_share;
 use serde::Serialize;
 
 /// How each frame's BVH is made.
@@ -242,11 +244,30 @@ pub fn run(args: Args) -> Result<()> {
         animation: &animation,
         inside,
         bar: &bar,
+        compare: args.build.len() > 1,
     };
     let mut reports: Vec<Vec<Report>> = args.build.iter().map(|_| Vec::new()).collect();
+    // With several builds: the first build's first-round hits, frame by frame, and
+    // each run's smallest share of rays that hit the same triangle as there.
+    let mut reference: Option<Vec<Vec<Hit>>> = None;
+    let mut same_hits: Vec<Vec<f64>> = args.build.iter().map(|_| Vec::new()).collect();
     for _ in 0..rounds {
         for (b, &build) in args.build.iter().enumerate() {
-            let frames = play.frames(build, clusters.as_ref())?;
+            let (frames, hits) = play.frames(build, clusters.as_ref())?;
+            if play.compare {
+                let share = match &reference {
+                    None => {
+                        reference = Some(hits);
+                        1.0
+                    }
+                    Some(first) => hits
+                        .iter()
+                        .zip(first)
+                        .map(|(h, r)| same_triangle_share(h, r))
+                        .fold(1.0, f64::min),
+                };
+                same_hits[b].push(share);
+            }
             let is_clusters = build == Build::Clusters;
             reports[b].push(Report {
                 mesh: args.mesh.clone(),
@@ -272,7 +293,7 @@ pub fn run(args: Args) -> Result<()> {
     if let [report] = &reports[..] {
         return emit(&report[0], args.json, print);
     }
-    let sides = Side::of_all(&reports);
+    let sides = Side::of_all(&reports, &same_hits);
     if args.json {
         for side in &sides {
             println!("{}", json_line(side));
@@ -292,11 +313,18 @@ struct Play<'a> {
     animation: &'a Animation,
     inside: Inside,
     bar: &'a crate::output::Bar,
+    /// Whether each frame's closest hits are kept, for comparing builds.
+    compare: bool,
 }
 
 impl Play<'_> {
-    /// Every frame built by `build` and traced.
-    fn frames(&self, build: Build, clusters: Option<&Clusters>) -> Result<Vec<Frame>> {
+    /// Every frame built by `build` and traced, and (with `compare`) each frame's
+    /// closest hits, traced once more untimed.
+    fn frames(
+        &self,
+        build: Build,
+        clusters: Option<&Clusters>,
+    ) -> Result<(Vec<Frame>, Vec<Vec<Hit>>)> {
         let args = self.args;
         let mut refitted: Option<SceneAccel> = None;
         let mut cluster_frames = clusters
@@ -305,6 +333,7 @@ impl Play<'_> {
         #[cfg(feature = "embree")]
         let mut embree: Option<rtmesh_lab::embree::EmbreeScene> = None;
         let mut frames = Vec::with_capacity(args.frames);
+        let mut hits = Vec::new();
         for f in 0..args.frames {
             self.bar.message(&format!("{}, frame {f}", build.name()));
             let mut frame = self.mesh.clone();
@@ -333,6 +362,9 @@ impl Play<'_> {
                 let (width, height) = args.size;
                 let work = Workload::generate(self.kind, &frame_scene, e, width, height, 1);
                 let run = measure(e, &work, args.runs);
+                if self.compare {
+                    hits.push(trace_closest::<NoCounters>(e, &work.rays).0);
+                }
                 frames.push(Frame::of(f, build_ms, &run, f32::NAN));
                 self.bar.advance(1);
                 continue;
@@ -366,6 +398,9 @@ impl Play<'_> {
             } else {
                 measure(&accel, &work, args.runs)
             };
+            if self.compare {
+                hits.push(trace_closest::<NoCounters>(&accel, &work.rays).0);
+            }
             frames.push(Frame::of(f, build_ms, &run, accel.stats().sah_cost));
             if build == Build::Refit {
                 refitted = Some(accel);
@@ -374,7 +409,7 @@ impl Play<'_> {
             }
             self.bar.advance(1);
         }
-        Ok(frames)
+        Ok((frames, hits))
     }
 }
 
@@ -394,15 +429,15 @@ struct Side {
     trace_ms: Vec<f64>,
     /// The first build's summed trace ms over this one's.
     trace_speedup: f64,
-    /// Whether every frame's hit checksum equals the first build's (a ray that meets
-    /// two triangles at the same distance, on a shared edge, may name either, so
-    /// different trees over the same frame can differ here).
-    same_checksums: bool,
+    /// The smallest share, over frames and rounds, of rays whose closest hit is the
+    /// triangle the first build's hit in its first round (a ray that meets two
+    /// triangles at one distance, on a shared edge, may name either).
+    same_hits: f64,
 }
 
 impl Side {
     /// The sides of every build's reports (one a round).
-    fn of_all(reports: &[Vec<Report>]) -> Vec<Side> {
+    fn of_all(reports: &[Vec<Report>], same_hits: &[Vec<f64>]) -> Vec<Side> {
         let build_ms = |runs: &[Report]| {
             let per_round: Vec<f64> = runs
                 .iter()
@@ -426,7 +461,8 @@ impl Side {
         let (first_build, first_trace) = (build_ms(first), trace_ms(first).iter().sum::<f64>());
         reports
             .iter()
-            .map(|runs| {
+            .zip(same_hits)
+            .map(|(runs, same)| {
                 let r = &runs[0];
                 let trace = trace_ms(runs);
                 Side {
@@ -438,12 +474,7 @@ impl Side {
                     build_speedup: first_build / build_ms(runs),
                     trace_speedup: first_trace / trace.iter().sum::<f64>(),
                     trace_ms: trace,
-                    same_checksums: runs.iter().all(|run| {
-                        run.frames
-                            .iter()
-                            .zip(&first[0].frames)
-                            .all(|(a, b)| a.hit_checksum == b.hit_checksum)
-                    }),
+                    same_hits: same.iter().copied().fold(1.0, f64::min),
                 }
             })
             .collect()
@@ -464,7 +495,7 @@ fn print_sides(r: &Report, rounds: usize, sides: &[Side]) {
     );
     println!(
         "{:<14} {:>10} {:>8} {:>9} {:>10}  trace ms by frame",
-        "build", "build ms", "×", "trace ×", "same sums"
+        "build", "build ms", "×", "trace ×", "same hits"
     );
     for side in sides {
         let trace: Vec<String> = side.trace_ms.iter().map(|t| format!("{t:.2}")).collect();
@@ -474,7 +505,7 @@ fn print_sides(r: &Report, rounds: usize, sides: &[Side]) {
             side.build_ms,
             side.build_speedup,
             side.trace_speedup,
-            if side.same_checksums { "yes" } else { "no" },
+            format!("{:.3}%", 100.0 * side.same_hits),
             trace.join(" ")
         );
     }
