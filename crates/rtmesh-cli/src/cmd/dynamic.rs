@@ -244,40 +244,36 @@ pub fn run(args: Args) -> Result<()> {
         animation: &animation,
         inside,
         bar: &bar,
-        compare: args.build.len() > 1,
     };
-    let mut reports: Vec<Vec<Report>> = args.build.iter().map(|_| Vec::new()).collect();
-    // With several builds: the first build's first-round hits, frame by frame, and
-    // each run's smallest share of rays that hit the same triangle as there.
+    let packet = match side {
+        1 => "none".to_owned(),
+        side => format!("{side}x{side}"),
+    };
+    // Each build's runs, a round each.
+    let mut runs: Vec<Vec<Run>> = args.build.iter().map(|_| Vec::new()).collect();
+    // With several builds: the first build's first-round hits, frame by frame.
     let mut reference: Option<Vec<Vec<Hit>>> = None;
-    let mut same_hits: Vec<Vec<f64>> = args.build.iter().map(|_| Vec::new()).collect();
     for _ in 0..rounds {
         for (b, &build) in args.build.iter().enumerate() {
             let (frames, hits) = play.frames(build, clusters.as_ref())?;
-            if play.compare {
-                let share = match &reference {
-                    None => {
-                        reference = Some(hits);
-                        1.0
-                    }
-                    Some(first) => hits
-                        .iter()
-                        .zip(first)
-                        .map(|(h, r)| same_triangle_share(h, r))
-                        .fold(1.0, f64::min),
-                };
-                same_hits[b].push(share);
-            }
+            let same_hits = match &reference {
+                None => {
+                    reference = Some(hits);
+                    1.0
+                }
+                Some(first) => hits
+                    .iter()
+                    .zip(first)
+                    .map(|(h, r)| same_triangle_share(h, r))
+                    .fold(1.0, f64::min),
+            };
             let is_clusters = build == Build::Clusters;
-            reports[b].push(Report {
+            let report = Report {
                 mesh: args.mesh.clone(),
                 motion: args.motion.clone(),
                 build,
                 ray_kind: kind.name(),
-                packet: match side {
-                    1 => "none".to_owned(),
-                    side => format!("{side}x{side}"),
-                },
+                packet: packet.clone(),
                 triangles: mesh.triangle_count(),
                 clusters: clusters.as_ref().filter(|_| is_clusters).map(|c| c.len()),
                 precompute_ms: precompute_ms.filter(|_| is_clusters),
@@ -286,20 +282,21 @@ pub fn run(args: Args) -> Result<()> {
                     trace_ms: frames.iter().map(|f| f.trace_ms).sum(),
                 },
                 frames,
-            });
+            };
+            runs[b].push(Run { report, same_hits });
         }
     }
     bar.0.finish_and_clear();
-    if let [report] = &reports[..] {
-        return emit(&report[0], args.json, print);
+    if let [single] = &runs[..] {
+        return emit(&single[0].report, args.json, print);
     }
-    let sides = Side::of_all(&reports, &same_hits);
+    let sides = Side::of_all(&runs);
     if args.json {
         for side in &sides {
             println!("{}", json_line(side));
         }
     } else {
-        print_sides(&reports[0][0], rounds, &sides);
+        print_sides(&runs[0][0].report, rounds, &sides);
     }
     Ok(())
 }
@@ -313,12 +310,22 @@ struct Play<'a> {
     animation: &'a Animation,
     inside: Inside,
     bar: &'a crate::output::Bar,
-    /// Whether each frame's closest hits are kept, for comparing builds.
-    compare: bool,
+}
+
+/// One build's report in one round, and the smallest share over its frames of rays
+/// that hit the triangle the first build hit in its first round.
+struct Run {
+    report: Report,
+    same_hits: f64,
 }
 
 impl Play<'_> {
-    /// Every frame built by `build` and traced, and (with `compare`) each frame's
+    /// Whether builds are compared: then each frame's closest hits are kept.
+    fn compares(&self) -> bool {
+        self.args.build.len() > 1
+    }
+
+    /// Every frame built by `build` and traced, and (when it [`compares`](Self::compares)) each frame's
     /// closest hits, traced once more untimed.
     fn frames(
         &self,
@@ -362,7 +369,7 @@ impl Play<'_> {
                 let (width, height) = args.size;
                 let work = Workload::generate(self.kind, &frame_scene, e, width, height, 1);
                 let run = measure(e, &work, args.runs);
-                if self.compare {
+                if self.compares() {
                     hits.push(trace_closest::<NoCounters>(e, &work.rays).0);
                 }
                 frames.push(Frame::of(f, build_ms, &run, f32::NAN));
@@ -398,7 +405,7 @@ impl Play<'_> {
             } else {
                 measure(&accel, &work, args.runs)
             };
-            if self.compare {
+            if self.compares() {
                 hits.push(trace_closest::<NoCounters>(&accel, &work.rays).0);
             }
             frames.push(Frame::of(f, build_ms, &run, accel.stats().sah_cost));
@@ -436,12 +443,12 @@ struct Side {
 }
 
 impl Side {
-    /// The sides of every build's reports (one a round).
-    fn of_all(reports: &[Vec<Report>], same_hits: &[Vec<f64>]) -> Vec<Side> {
-        let build_ms = |runs: &[Report]| {
+    /// The sides of every build's runs (one a round).
+    fn of_all(runs: &[Vec<Run>]) -> Vec<Side> {
+        let build_ms = |runs: &[Run]| {
             let per_round: Vec<f64> = runs
                 .iter()
-                .map(|r| {
+                .map(|Run { report: r, .. }| {
                     let skip = usize::from(r.frames.len() > 1);
                     let later: Vec<f64> = r.frames.iter().skip(skip).map(|f| f.build_ms).collect();
                     median(&later)
@@ -449,32 +456,31 @@ impl Side {
                 .collect();
             median(&per_round)
         };
-        let trace_ms = |runs: &[Report]| -> Vec<f64> {
-            (0..runs[0].frames.len())
+        let trace_ms = |runs: &[Run]| -> Vec<f64> {
+            (0..runs[0].report.frames.len())
                 .map(|f| {
-                    let per_round: Vec<f64> = runs.iter().map(|r| r.frames[f].trace_ms).collect();
+                    let per_round: Vec<f64> =
+                        runs.iter().map(|r| r.report.frames[f].trace_ms).collect();
                     median(&per_round)
                 })
                 .collect()
         };
-        let first = &reports[0];
+        let first = &runs[0];
         let (first_build, first_trace) = (build_ms(first), trace_ms(first).iter().sum::<f64>());
-        reports
-            .iter()
-            .zip(same_hits)
-            .map(|(runs, same)| {
-                let r = &runs[0];
-                let trace = trace_ms(runs);
+        runs.iter()
+            .map(|runs| {
+                let r = &runs[0].report;
+                let (build, trace) = (build_ms(runs), trace_ms(runs));
                 Side {
                     mesh: r.mesh.clone(),
                     motion: r.motion.clone(),
                     build: r.build,
                     rounds: runs.len(),
-                    build_ms: build_ms(runs),
-                    build_speedup: first_build / build_ms(runs),
+                    build_ms: build,
+                    build_speedup: first_build / build,
                     trace_speedup: first_trace / trace.iter().sum::<f64>(),
                     trace_ms: trace,
-                    same_hits: same.iter().copied().fold(1.0, f64::min),
+                    same_hits: runs.iter().map(|r| r.same_hits).fold(1.0, f64::min),
                 }
             })
             .collect()

@@ -697,13 +697,11 @@ fn split_blocks(items: &mut [(Vec3, Aabb, u32)], suffix: &mut [Aabb]) {
             bits | 1 << 31
         }
     };
-    let mut keys = [Vec::new(), Vec::new()];
     // Without a finite cost (non-finite corners), halves of whole blocks along x.
-    let (mut best_cost, mut best_keys, mut best_k) = (f32::INFINITY, 0, 0);
-    let half = n.div_ceil(2 * TRIANGLE4_LANES) * TRIANGLE4_LANES;
+    let mut best_cost = f32::INFINITY;
+    let mut best_k = n.div_ceil(2 * TRIANGLE4_LANES) * TRIANGLE4_LANES;
+    let (mut order, mut best_order) = (Vec::with_capacity(n), Vec::with_capacity(n));
     for axis in 0..3 {
-        let slot = if axis == 0 || best_keys == 1 { 0 } else { 1 };
-        let order = &mut keys[slot];
         order.clear();
         order.extend(
             items
@@ -717,6 +715,7 @@ fn split_blocks(items: &mut [(Vec3, Aabb, u32)], suffix: &mut [Aabb]) {
         for i in (0..n).rev() {
             suffix[i] = suffix[i + 1].union(item(order[i]).1);
         }
+        let mut improved = false;
         let mut left = Aabb::EMPTY;
         for (i, &key) in order.iter().enumerate().take(n - 1) {
             left = left.union(item(key).1);
@@ -726,14 +725,15 @@ fn split_blocks(items: &mut [(Vec3, Aabb, u32)], suffix: &mut [Aabb]) {
             }
             let cost = left.half_area() * blocks(k) + suffix[k].half_area() * blocks(n - k);
             if cost < best_cost {
-                (best_cost, best_keys, best_k) = (cost, slot, k);
+                (best_cost, best_k, improved) = (cost, k, true);
             }
         }
-        if axis == 0 && best_k == 0 {
-            best_k = half;
+        // The x order stands in until an axis with a finite cost.
+        if improved || axis == 0 {
+            std::mem::swap(&mut order, &mut best_order);
         }
     }
-    let sorted: Vec<_> = keys[best_keys]
+    let sorted: Vec<_> = best_order
         .iter()
         .map(|&key| items[key as u32 as usize])
         .collect();

@@ -130,8 +130,10 @@ pub(super) fn refine(
             gains.retain(|g| g.0 < here);
             gains.sort_unstable_by(|p, q| p.0.total_cmp(&q.0).then(p.1.cmp(&q.1)));
             gains.dedup_by_key(|g| g.1);
-            let Some(&(_, b)) = gains.iter().find(|&&(_, b)| {
-                vertices[b as usize] + own_corners(&groups[b as usize], t) <= settings.max_vertices
+            // The best receiver within the vertex limit, with the corners t brings it.
+            let Some((b, brought)) = gains.iter().find_map(|&(_, b)| {
+                let brought = own_corners(&groups[b as usize], t);
+                (vertices[b as usize] + brought <= settings.max_vertices).then_some((b, brought))
             }) else {
                 continue;
             };
@@ -163,7 +165,7 @@ pub(super) fn refine(
                 }
             }
             vertices[a as usize] -= own_corners(ga, t);
-            vertices[b as usize] += own_corners(&groups[b as usize], t);
+            vertices[b as usize] += brought;
             groups[a as usize].retain(|&u| u != t);
             groups[b as usize].push(t);
             owner[t as usize] = b;
