@@ -10,9 +10,10 @@
 //! cost is the latency of each node test, and two halves in parallel cost about what
 //! one does. A child reference is an inner node index, a leaf
 //! (bit 31 set, 4-bit primitive count and 27-bit first primitive), or [`EMPTY_CHILD`]
-//! whose box is inverted so that no ray ever enters it. Nodes are stored parent before
-//! children (depth first), which keeps a subtree together in memory and lets refit run
-//! as one reverse pass.
+//! whose box is inverted so that no ray ever enters it. The builder stores nodes parent
+//! before children (depth first), which keeps a subtree together in memory; nothing
+//! else relies on the order (refit walks from the root), so a per-frame cluster scene
+//! can keep its clusters' nodes in place ahead of the top tree's.
 
 mod build;
 mod quantized;
@@ -156,9 +157,10 @@ pub struct BvhStats {
 /// An 8-wide BVH over primitives stored in leaf order.
 #[derive(Clone, Debug)]
 pub struct Bvh<P> {
-    /// Nodes, parent before children; node 0 is the root when `root` is inner.
+    /// Nodes, each reached from one parent (the builder's are parent before children,
+    /// the root at 0).
     pub nodes: Vec<BvhNode>,
-    /// The root reference (inner node 0, a single leaf, or empty).
+    /// The root reference (an inner node, a single leaf, or empty).
     pub root: u32,
     /// Primitives in leaf order.
     pub primitives: Vec<P>,
@@ -234,17 +236,31 @@ impl<P: Primitive> Bvh<P> {
     }
 
     /// Recompute every box from the primitives (after they moved), keeping the topology:
-    /// one reverse pass over the nodes, O(nodes + primitives).
+    /// one pass from the root, children before their parent, O(nodes + primitives).
+    /// Nodes may be stored in any order (a per-frame cluster scene keeps its clusters'
+    /// nodes ahead of the top tree's).
     pub fn refit(&mut self) {
-        for n in (0..self.nodes.len()).rev() {
-            for lane in 0..WIDTH {
-                let b = match Child::decode(self.nodes[n].children[lane]) {
-                    Child::Inner(i) => self.nodes[i as usize].bounds(),
-                    Child::Leaf { first, count } => self.leaf_bounds(first, count),
-                    Child::Empty => continue,
-                };
-                self.nodes[n].set_child_bounds(lane, b);
+        self.refit_subtree(self.root);
+    }
+
+    /// Refit the subtree of `reference` and return its box.
+    fn refit_subtree(&mut self, reference: u32) -> Aabb {
+        match Child::decode(reference) {
+            Child::Inner(n) => {
+                let mut bounds = Aabb::EMPTY;
+                for lane in 0..WIDTH {
+                    let child = self.nodes[n as usize].children[lane];
+                    if Child::decode(child) == Child::Empty {
+                        continue;
+                    }
+                    let b = self.refit_subtree(child);
+                    self.nodes[n as usize].set_child_bounds(lane, b);
+                    bounds = bounds.union(b);
+                }
+                bounds
             }
+            Child::Leaf { first, count } => self.leaf_bounds(first, count),
+            Child::Empty => Aabb::EMPTY,
         }
     }
 
@@ -302,27 +318,25 @@ impl<P: Primitive> Bvh<P> {
         sah
     }
 
-    /// Check every invariant: child boxes contain their subtrees' primitives, nodes come
-    /// after their parents, every primitive is in exactly one leaf, leaves are 1..=15.
+    /// Check every invariant: child boxes contain their subtrees' primitives, every node
+    /// is reached from exactly one parent (so there is no cycle), every primitive is in
+    /// exactly one leaf, leaves are 1..=15.
     /// Returns the first violation.
     pub fn validate(&self) -> Result<(), InvalidBvh> {
         let mut seen = vec![false; self.primitives.len()];
         let mut node_seen = vec![false; self.nodes.len()];
-        let mut stack = vec![(self.root, None::<Aabb>, None::<u32>)];
-        while let Some((reference, bounds, parent)) = stack.pop() {
+        let mut stack = vec![(self.root, None::<Aabb>)];
+        while let Some((reference, bounds)) = stack.pop() {
             let subtree = match Child::decode(reference) {
                 Child::Empty => continue,
                 Child::Inner(i) => {
                     if i as usize >= self.nodes.len() || node_seen[i as usize] {
                         return Err(InvalidBvh::NodeReachedTwice(i));
                     }
-                    if parent.is_some_and(|p| p >= i) {
-                        return Err(InvalidBvh::NodeBeforeParent(i));
-                    }
                     node_seen[i as usize] = true;
                     let node = &self.nodes[i as usize];
                     for lane in 0..WIDTH {
-                        stack.push((node.children[lane], Some(node.child_bounds(lane)), Some(i)));
+                        stack.push((node.children[lane], Some(node.child_bounds(lane))));
                     }
                     node.bounds()
                 }
@@ -360,9 +374,6 @@ pub enum InvalidBvh {
     /// An inner node index past the nodes, or reached from two parents.
     #[error("node {0} out of range or reached twice")]
     NodeReachedTwice(u32),
-    /// An inner node stored before its parent.
-    #[error("node {0} stored before its parent")]
-    NodeBeforeParent(u32),
     /// A leaf with no primitive, or past the primitives.
     #[error("leaf {first}+{count} is empty or out of range")]
     BadLeaf {

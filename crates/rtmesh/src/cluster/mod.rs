@@ -68,7 +68,7 @@ use crate::geom::Aabb;
 use crate::mesh::{EdgeAdjacency, TriMesh, NO_EDGE};
 use crate::trace::triangle::{Triangle4, TRIANGLE4_LANES};
 use crate::trace::SceneAccel;
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -841,16 +841,16 @@ pub struct ClusterFrames<'c> {
     clusters: &'c Clusters,
     /// Cluster `c`'s blocks are `blocks[block_start[c]..block_start[c + 1]]`.
     block_start: Vec<u32>,
-    /// Cluster `c`'s nodes are `cluster_nodes[node_start[c]..node_start[c + 1]]`, its
-    /// root first; none when it is one leaf.
+    /// Cluster `c`'s nodes are `nodes[node_start[c]..node_start[c + 1]]`, its root
+    /// first; none when it is one leaf.
     node_start: Vec<u32>,
-    /// The clusters' nodes in this frame, which follow the top tree's in its scene
-    /// (children after parents, as a [`Bvh`] keeps them); their references to each
-    /// other count from the first.
+    /// The clusters' nodes as [`Self::new`] made them (their children; boxes are
+    /// refitted every frame), for a frame whose scene was not recycled.
     cluster_nodes: Vec<BvhNode>,
     /// The blocks of the last frame, taken back from its scene ([`Self::recycle`]).
     blocks: Vec<Triangle4>,
-    /// The nodes of the last frame, likewise (their room reused).
+    /// The nodes of the last frame, likewise: the clusters' nodes first, at the places
+    /// `node_start` gives, refitted in place each frame, then the top tree's.
     nodes: Vec<BvhNode>,
 }
 
@@ -975,7 +975,7 @@ impl<'c> ClusterFrames<'c> {
     }
 
     /// Take back the blocks and nodes of a scene this built, so that the next frame
-    /// reuses them.
+    /// rewrites them in place (the clusters' nodes keep their children).
     pub fn recycle(&mut self, accel: SceneAccel) {
         if let Some(bvh) = accel.into_single_blas() {
             self.blocks = bvh.primitives;
@@ -994,6 +994,10 @@ impl<'c> ClusterFrames<'c> {
         let clusters = self.clusters;
         let total = self.block_start[self.block_start.len() - 1] as usize;
         self.blocks.resize(total, EMPTY_BLOCK);
+        if self.nodes.len() < self.cluster_nodes.len() {
+            self.nodes.clone_from(&self.cluster_nodes);
+        }
+        self.nodes.truncate(self.cluster_nodes.len());
         let mut boxes: Vec<ClusterBox> = Vec::with_capacity(clusters.len());
         self.cluster_parts()
             .into_par_iter()
@@ -1012,15 +1016,11 @@ impl<'c> ClusterFrames<'c> {
             ..BuildSettings::default()
         };
         let over_boxes = Bvh::build(boxes, &settings);
-        // The top tree's nodes, then the leaves' group nodes, then the clusters' (parents
-        // first). Their boxes are the clusters' boxes, which were made from the blocks:
-        // no refit is needed.
-        let top = over_boxes.nodes.len() as u32;
-        let is_group =
-            |r: &u32| matches!(Child::decode(*r), Child::Leaf { count, .. } if count > 1);
-        let references = over_boxes.nodes.iter().flat_map(|n| n.children);
-        let groups = references.chain([over_boxes.root]).filter(is_group).count() as u32;
-        let first_cluster_node = top + groups;
+        // The clusters' nodes stay where they are, first; the top tree's nodes follow
+        // them, then the leaves' group nodes. Their boxes are the clusters' boxes, which
+        // were made from the blocks: no refit is needed.
+        let first_top = self.cluster_nodes.len() as u32;
+        let first_group = first_top + over_boxes.nodes.len() as u32;
         let (block_start, node_start) = (&self.block_start, &self.node_start);
         let cluster = |p: u32| {
             let c = over_boxes.primitives[p as usize].cluster as usize;
@@ -1031,10 +1031,10 @@ impl<'c> ClusterFrames<'c> {
                 }
                 .encode()
             } else {
-                Child::Inner(first_cluster_node + node_start[c]).encode()
+                Child::Inner(node_start[c]).encode()
             }
         };
-        let mut group_nodes = Vec::with_capacity(groups as usize);
+        let mut group_nodes = Vec::new();
         let mut remap = |reference: u32| match Child::decode(reference) {
             Child::Leaf { first, count: 1 } => cluster(first),
             Child::Leaf { first, count } => {
@@ -1044,20 +1044,18 @@ impl<'c> ClusterFrames<'c> {
                     node.set_child_bounds(lane, over_boxes.primitives[p as usize].bounds);
                 }
                 group_nodes.push(node);
-                Child::Inner(top + group_nodes.len() as u32 - 1).encode()
+                Child::Inner(first_group + group_nodes.len() as u32 - 1).encode()
             }
-            Child::Inner(_) | Child::Empty => reference,
+            Child::Inner(n) => Child::Inner(first_top + n).encode(),
+            Child::Empty => reference,
         };
         let mut nodes = std::mem::take(&mut self.nodes);
-        nodes.clear();
         let root = remap(over_boxes.root);
         nodes.extend(over_boxes.nodes.iter().map(|node| BvhNode {
             children: node.children.map(&mut remap),
             ..*node
         }));
         nodes.extend_from_slice(&group_nodes);
-        let placed = self.cluster_nodes.iter();
-        nodes.extend(placed.map(|node| shifted(node, first_cluster_node)));
         let bvh = Bvh {
             root,
             nodes,
@@ -1071,7 +1069,7 @@ impl<'c> ClusterFrames<'c> {
     /// nodes, as disjoint slices.
     fn cluster_parts(&mut self) -> Vec<ClusterPart<'_>> {
         let mut parts = Vec::with_capacity(self.clusters.len());
-        let (mut blocks, mut nodes) = (&mut self.blocks[..], &mut self.cluster_nodes[..]);
+        let (mut blocks, mut nodes) = (&mut self.blocks[..], &mut self.nodes[..]);
         for c in 0..self.clusters.len() {
             let block_count = (self.block_start[c + 1] - self.block_start[c]) as usize;
             let (my_blocks, rest) = std::mem::take(&mut blocks).split_at_mut(block_count);
@@ -1139,6 +1137,9 @@ fn write_cluster(
     {
         let used = (range.end - first).min(TRIANGLE4_LANES);
         *block = EMPTY_BLOCK;
+        // The box in SSE registers: `p.min(low)` keeps `low` where `p` is NaN, as
+        // `f32::min` does, in one instruction instead of a NaN-checking blend.
+        let (mut low, mut high) = (Vec4::splat(f32::INFINITY), Vec4::splat(f32::NEG_INFINITY));
         for lane in 0..used {
             let [a, b, d] = clusters.local_triangles[first + lane].map(|l| local[l as usize]);
             let (e1, e2) = (b - a, d - a);
@@ -1148,8 +1149,15 @@ fn write_cluster(
                 block.e2[axis][lane] = e2[axis];
             }
             block.ids[lane] = clusters.input_triangle[first + lane];
-            *block_box = block_box.union(Aabb::from_points(&[a, a + e1, a + e2]));
+            for p in [a, a + e1, a + e2] {
+                let p = p.extend(0.0);
+                (low, high) = (p.min(low), p.max(high));
+            }
         }
+        *block_box = Aabb {
+            min: low.truncate(),
+            max: high.truncate(),
+        };
         // Unused lanes repeat the first corner with zero edges, as `Triangle4::new`.
         for lane in used..TRIANGLE4_LANES {
             for axis in 0..3 {
