@@ -974,12 +974,18 @@ impl<'c> ClusterFrames<'c> {
         }
     }
 
-    /// Take back the blocks and nodes of a scene this built, so that the next frame
-    /// rewrites them in place (the clusters' nodes keep their children).
+    /// Take back the blocks and nodes of the scene [`Self::build`] returned, so that
+    /// the next frame rewrites in place only what moves: the blocks' corners and edges
+    /// and the nodes' boxes (the blocks keep their triangle ids, the clusters' nodes
+    /// their children). A scene of another size is dropped, and the next frame starts
+    /// afresh.
     pub fn recycle(&mut self, accel: SceneAccel) {
+        let total = self.block_start[self.block_start.len() - 1] as usize;
         if let Some(bvh) = accel.into_single_blas() {
-            self.blocks = bvh.primitives;
-            self.nodes = bvh.nodes;
+            if bvh.primitives.len() == total && bvh.nodes.len() >= self.cluster_nodes.len() {
+                self.blocks = bvh.primitives;
+                self.nodes = bvh.nodes;
+            }
         }
     }
 
@@ -993,8 +999,12 @@ impl<'c> ClusterFrames<'c> {
         let start = std::time::Instant::now();
         let clusters = self.clusters;
         let total = self.block_start[self.block_start.len() - 1] as usize;
-        self.blocks.resize(total, EMPTY_BLOCK);
-        if self.nodes.len() < self.cluster_nodes.len() {
+        // Recycled blocks keep their ids and their unused lanes' zero edges, recycled
+        // nodes their children.
+        let fresh = self.blocks.len() != total;
+        if fresh {
+            self.blocks.clear();
+            self.blocks.resize(total, EMPTY_BLOCK);
             self.nodes.clone_from(&self.cluster_nodes);
         }
         self.nodes.truncate(self.cluster_nodes.len());
@@ -1003,7 +1013,7 @@ impl<'c> ClusterFrames<'c> {
             .into_par_iter()
             .enumerate()
             .map_init(Vec::new, |local, (c, part)| ClusterBox {
-                bounds: write_cluster(clusters, c, &mesh.positions, part, local),
+                bounds: write_cluster(clusters, c, &mesh.positions, part, fresh, local),
                 cluster: c as u32,
             })
             .collect_into_vec(&mut boxes);
@@ -1104,8 +1114,9 @@ const EMPTY_BLOCK: Triangle4 = Triangle4 {
     ids: [u32::MAX; 4],
 };
 
-/// Write cluster `c`'s blocks (packed as [`Triangle4::new`] packs them) and its nodes
-/// from `positions`, through `local` (its vertices' positions, gathered once), and
+/// Write cluster `c`'s blocks (packed as [`Triangle4::new`] packs them; their triangle
+/// ids only when `fresh`, else they are last frame's) and its nodes' boxes from
+/// `positions`, through `local` (its vertices' positions, gathered once), and
 /// return its box: the union of its triangles' boxes as the leaf test sees them (from
 /// the stored corner and edges, as [`crate::trace::Triangle`]'s).
 fn write_cluster(
@@ -1113,6 +1124,7 @@ fn write_cluster(
     c: usize,
     positions: &[Vec3],
     part: ClusterPart<'_>,
+    fresh: bool,
     local: &mut Vec<Vec3>,
 ) -> Aabb {
     let ClusterPart {
@@ -1136,7 +1148,11 @@ fn write_cluster(
         .zip(range.clone().step_by(TRIANGLE4_LANES))
     {
         let used = (range.end - first).min(TRIANGLE4_LANES);
-        *block = EMPTY_BLOCK;
+        if fresh {
+            for lane in 0..used {
+                block.ids[lane] = clusters.input_triangle[first + lane];
+            }
+        }
         // The box in SSE registers: `p.min(low)` keeps `low` where `p` is NaN, as
         // `f32::min` does, in one instruction instead of a NaN-checking blend.
         let (mut low, mut high) = (Vec4::splat(f32::INFINITY), Vec4::splat(f32::NEG_INFINITY));
@@ -1148,7 +1164,6 @@ fn write_cluster(
                 block.e1[axis][lane] = e1[axis];
                 block.e2[axis][lane] = e2[axis];
             }
-            block.ids[lane] = clusters.input_triangle[first + lane];
             for p in [a, a + e1, a + e2] {
                 let p = p.extend(0.0);
                 (low, high) = (p.min(low), p.max(high));

@@ -212,6 +212,30 @@ fn a_cluster_scene_refits_though_its_clusters_nodes_come_first() {
         .all(|(x, y)| x.triangle == y.triangle || x.t == y.t));
 }
 
+/// A recycled frame keeps its blocks' ids and its nodes' children; a scene that is
+/// not one of this [`ClusterFrames`]' (here a rebuild's) is dropped, not reused.
+#[test]
+fn recycling_a_scene_of_another_build_starts_afresh() {
+    let mesh = crate::scenes::scan_blob(5_000, 6);
+    let clusters = ClusterMethod::Grow.cluster(&mesh, &ClusterSettings::default());
+    let mut frames = ClusterFrames::new(&clusters, Inside::Node, &mesh);
+    let scene = Scene::from_mesh(mesh.clone());
+    let rebuilt = SceneAccel::build(&scene, &BuildSettings::default());
+    let work = Workload::generate(RayKind::Primary, &scene, &rebuilt, 64, 64, 1);
+    let expected = trace_closest::<NoCounters>(&rebuilt, &work.rays).0;
+    frames.recycle(SceneAccel::build(&scene, &BuildSettings::default()));
+    for _ in 0..2 {
+        let accel = frames.build(&mesh);
+        crate::bvh::Bvh::validate(&accel.blas[0]).unwrap();
+        let hits = trace_closest::<NoCounters>(&accel, &work.rays).0;
+        assert!(expected
+            .iter()
+            .zip(&hits)
+            .all(|(x, y)| x.triangle == y.triangle || x.t == y.t));
+        frames.recycle(accel);
+    }
+}
+
 #[test]
 fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
     let mesh = crate::scenes::scan_blob(20_000, 3);
