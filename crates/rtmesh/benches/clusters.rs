@@ -1,11 +1,12 @@
 //! One animated frame's BVH over precomputed clusters against a full rebuild, on the
 //! Stanford dragon (871k triangles) twisted halfway when the data is present, else on
-//! the 100k-triangle procedural blob; and the two clusterings by Acc(k).
+//! the 100k-triangle procedural blob (clusters grouped each frame and at rest); and the
+//! two clusterings by Acc(k).
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rtmesh::animate::{Animation, Procedural};
 use rtmesh::bvh::BuildSettings;
-use rtmesh::cluster::{ClusterFrames, ClusterMethod, ClusterSettings, Inside};
+use rtmesh::cluster::{ClusterFrames, ClusterMethod, ClusterSettings, Grouping, Inside};
 use rtmesh::trace::SceneAccel;
 use rtmesh::Scene;
 
@@ -18,9 +19,15 @@ fn bench(c: &mut Criterion) {
     let clusters = ClusterMethod::Grow.cluster(&mesh, &settings);
     let mut group = c.benchmark_group("clusters");
     group.sample_size(10);
-    for inside in [Inside::Node, Inside::Flat] {
-        let mut frames = ClusterFrames::new(&clusters, inside, &mesh);
-        group.bench_function(format!("frame/{inside:?}/{name}"), |b| {
+    let arrangements = [
+        (Inside::Node, Grouping::Frame),
+        (Inside::Node, Grouping::Rest),
+        (Inside::Flat, Grouping::Frame),
+    ];
+    for (inside, grouping) in arrangements {
+        let mut frames = ClusterFrames::new(&clusters, inside, &mesh).grouped(grouping, &mesh);
+        let groups = grouping.name();
+        group.bench_function(format!("frame/{inside:?}/{groups}/{name}"), |b| {
             b.iter(|| {
                 let accel = frames.build(&frame);
                 frames.recycle(accel);

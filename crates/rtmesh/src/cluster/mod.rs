@@ -45,14 +45,17 @@
 //! 4-wide blocks (in place, at a fixed spot kept from frame to frame), with the
 //! cluster's box; then a binned-SAH BVH over the cluster boxes whose leaves hold up to 8
 //! nearby clusters, as one 8-wide node over their boxes (the slides put a few nearby
-//! clusters in a leaf). A cluster is one flat leaf of its blocks, as in the slides
+//! clusters in a leaf). Which clusters share a leaf is chosen by every frame's build
+//! ([`Grouping::Frame`], as in the slides) or, by default, once by the same build on
+//! the rest pose ([`Grouping::Rest`]: a frame builds over the groups' boxes, an eighth
+//! as many). A cluster is one flat leaf of its blocks, as in the slides
 //! ([`Inside::Flat`]), or a small BVH over its blocks, built once by SAH on the rest
 //! pose and refitted by the frame's pass ([`Inside::Node`]: one 8-wide node up to 8
 //! blocks).
 //!
 //! Cost: growing is O(T · F) for F candidates on a cluster's frontier (tens); a frame is
 //! O(T) for the boxes and triangle blocks plus a build over T / |k| boxes that stops at
-//! groups of 8.
+//! groups of 8 (over T / 8|k| group boxes under [`Grouping::Rest`]).
 
 mod contract;
 mod grow;
@@ -807,17 +810,37 @@ fn merge_small(
     groups.retain(|g| !g.is_empty());
 }
 
-/// A cluster's box in one frame, the primitive of the per-frame BVH.
+/// A group's box in one frame, the primitive of the per-frame BVH (a group is one
+/// cluster under [`Grouping::Frame`]).
 #[derive(Clone, Copy, Debug)]
-struct ClusterBox {
+struct GroupBox {
     bounds: Aabb,
-    cluster: u32,
+    group: u32,
 }
 
-impl Primitive for ClusterBox {
+impl Primitive for GroupBox {
     fn bounds(&self) -> Aabb {
         self.bounds
     }
+}
+
+/// How the per-frame BVH's leaves gather clusters: each leaf becomes one 8-wide node
+/// over up to 8 clusters' boxes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Grouping {
+    /// Chosen by every frame's build, as in the slides: the SAH stops at up to 8
+    /// nearby clusters.
+    Frame,
+    /// Chosen once, by the same build over the clusters' boxes in the rest pose; each
+    /// frame builds over the groups' boxes (an eighth as many primitives: 5,011
+    /// groups of 37,947 clusters on the dragon) and gives each group a node over its
+    /// clusters' current boxes. Not in the slides. The default: on the dragon a
+    /// frame's build is 0.6x the time and the trace 1.03-1.1x (1.14x at the full
+    /// explosion, where groups part), so build + trace is 4-18% less
+    /// (`docs/measurements/clusters.md`).
+    #[default]
+    Rest,
 }
 
 /// What a cluster is inside the per-frame BVH.
@@ -831,6 +854,44 @@ pub enum Inside {
     /// blocks' boxes in the pose the clusters were found on, refitted every frame
     /// (one 8-wide node for up to 8 blocks, 32 triangles).
     Node,
+}
+
+impl Grouping {
+    /// The name `--groups` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Frame => "frame",
+            Self::Rest => "rest",
+        }
+    }
+}
+
+impl std::str::FromStr for Grouping {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<Self, String> {
+        [Self::Frame, Self::Rest]
+            .into_iter()
+            .find(|g| g.name() == name)
+            .ok_or_else(|| format!("the grouping is frame or rest, not `{name}`"))
+    }
+}
+
+/// The per-frame build's settings over cluster boxes (`Frame`) or group boxes
+/// (`Rest`). A top leaf of clusters holds up to 8 nearby ones and becomes one 8-wide
+/// node over their boxes: the SAH charges it one test (`leaf_block`), so the build stops
+/// there instead of splitting down to single clusters for the collapse to join. A group
+/// is a leaf of its own.
+fn top_settings(grouping: Grouping) -> BuildSettings {
+    let leaf = match grouping {
+        Grouping::Frame => WIDTH,
+        Grouping::Rest => 1,
+    };
+    BuildSettings {
+        max_leaf_size: leaf,
+        leaf_block: leaf,
+        ..BuildSettings::default()
+    }
 }
 
 /// The per-frame build over cluster boxes, keeping what frames share: each cluster's
@@ -852,6 +913,11 @@ pub struct ClusterFrames<'c> {
     /// The nodes of the last frame, likewise: the clusters' nodes first, at the places
     /// `node_start` gives, refitted in place each frame, then the top tree's.
     nodes: Vec<BvhNode>,
+    /// Under [`Grouping::Rest`], group `g`'s clusters are
+    /// `group_clusters[group_start[g]..group_start[g + 1]]`; empty under
+    /// [`Grouping::Frame`], where each cluster is its own group.
+    group_start: Vec<u32>,
+    group_clusters: Vec<u32>,
 }
 
 /// A block's box in the rest pose, the primitive of a cluster's own BVH.
@@ -971,7 +1037,51 @@ impl<'c> ClusterFrames<'c> {
             node_start,
             blocks: Vec::new(),
             nodes: Vec::new(),
+            group_start: Vec::new(),
+            group_clusters: Vec::new(),
         }
+    }
+
+    /// Gather the clusters into the top tree's leaves as `grouping` says; under
+    /// [`Grouping::Rest`], by a build over their boxes in `rest`.
+    pub fn grouped(mut self, grouping: Grouping, rest: &TriMesh) -> Self {
+        self.group_start.clear();
+        self.group_clusters.clear();
+        if grouping == Grouping::Frame {
+            return self;
+        }
+        let boxes: Vec<GroupBox> = (0..self.clusters.len())
+            .map(|c| GroupBox {
+                bounds: Aabb::from_points(
+                    self.clusters
+                        .vertices_of(c)
+                        .iter()
+                        .map(|&v| &rest.positions[v as usize]),
+                ),
+                group: c as u32,
+            })
+            .collect();
+        let leaves = Bvh::build(boxes.clone(), &top_settings(Grouping::Frame))
+            .map_leaves(|leaf| leaf.iter().map(|b| b.group).collect::<Vec<u32>>())
+            .primitives;
+        // Clusters the build left out (a non-finite box at rest) are a group each.
+        let mut grouped = vec![false; self.clusters.len()];
+        let left_out: Vec<Vec<u32>> = {
+            leaves
+                .iter()
+                .flatten()
+                .for_each(|&c| grouped[c as usize] = true);
+            (0..self.clusters.len() as u32)
+                .filter(|&c| !grouped[c as usize])
+                .map(|c| vec![c])
+                .collect()
+        };
+        self.group_start.push(0);
+        for group in leaves.iter().chain(&left_out) {
+            self.group_clusters.extend(group);
+            self.group_start.push(self.group_clusters.len() as u32);
+        }
+        self
     }
 
     /// Take back the blocks and nodes of the scene [`Self::build`] returned, so that
@@ -1008,32 +1118,50 @@ impl<'c> ClusterFrames<'c> {
             self.nodes.clone_from(&self.cluster_nodes);
         }
         self.nodes.truncate(self.cluster_nodes.len());
-        let mut boxes: Vec<ClusterBox> = Vec::with_capacity(clusters.len());
+        let mut boxes: Vec<GroupBox> = Vec::with_capacity(clusters.len());
         self.cluster_parts()
             .into_par_iter()
             .enumerate()
-            .map_init(Vec::new, |local, (c, part)| ClusterBox {
+            .map_init(Vec::new, |local, (c, part)| GroupBox {
                 bounds: write_cluster(clusters, c, &mesh.positions, part, fresh, local),
-                cluster: c as u32,
+                group: c as u32,
             })
             .collect_into_vec(&mut boxes);
-        // A top leaf holds up to 8 nearby clusters and becomes one 8-wide node over
-        // their boxes: the SAH charges it one test (`leaf_block`), so the build stops
-        // there instead of splitting down to single clusters for the collapse to join.
-        let settings = BuildSettings {
-            max_leaf_size: WIDTH,
-            leaf_block: WIDTH,
-            ..BuildSettings::default()
+        let (group_start, group_clusters) = (&self.group_start, &self.group_clusters);
+        let members = |g: u32| {
+            &group_clusters[group_start[g as usize] as usize..group_start[g as usize + 1] as usize]
         };
-        let over_boxes = Bvh::build(boxes, &settings);
+        let grouping = if group_start.is_empty() {
+            Grouping::Frame
+        } else {
+            Grouping::Rest
+        };
+        let top_boxes = match grouping {
+            Grouping::Frame => std::mem::take(&mut boxes),
+            Grouping::Rest => {
+                // A group keeps its rest-pose clusters, however far they move apart:
+                // opening a group whose box spread out (its half area against its
+                // clusters', over the same at rest) to build over its clusters one by
+                // one was measured not to pay (docs/measurements/clusters.md).
+                (0..group_start.len() as u32 - 1)
+                    .map(|g| GroupBox {
+                        bounds: members(g)
+                            .iter()
+                            .fold(Aabb::EMPTY, |b, &c| b.union(boxes[c as usize].bounds)),
+                        group: g,
+                    })
+                    .collect()
+            }
+        };
+        let over_boxes = Bvh::build(top_boxes, &top_settings(grouping));
         // The clusters' nodes stay where they are, first; the top tree's nodes follow
         // them, then the leaves' group nodes. Their boxes are the clusters' boxes, which
         // were made from the blocks: no refit is needed.
         let first_top = self.cluster_nodes.len() as u32;
         let first_group = first_top + over_boxes.nodes.len() as u32;
         let (block_start, node_start) = (&self.block_start, &self.node_start);
-        let cluster = |p: u32| {
-            let c = over_boxes.primitives[p as usize].cluster as usize;
+        let cluster = |c: u32| {
+            let c = c as usize;
             if node_start[c] == node_start[c + 1] {
                 Child::Leaf {
                     first: block_start[c],
@@ -1044,18 +1172,40 @@ impl<'c> ClusterFrames<'c> {
                 Child::Inner(node_start[c]).encode()
             }
         };
+        // A top leaf's clusters and their boxes (at most 8: a leaf of up to 8
+        // clusters, or of one group of up to 8).
+        let gather = |first: u32, count: u32| {
+            let (mut leaf, mut n) = ([(0u32, Aabb::EMPTY); WIDTH], 0);
+            for top in &over_boxes.primitives[first as usize..(first + count) as usize] {
+                match grouping {
+                    Grouping::Frame => {
+                        leaf[n] = (top.group, top.bounds);
+                        n += 1;
+                    }
+                    Grouping::Rest => {
+                        for &c in members(top.group) {
+                            leaf[n] = (c, boxes[c as usize].bounds);
+                            n += 1;
+                        }
+                    }
+                }
+            }
+            (leaf, n)
+        };
         let mut group_nodes = Vec::new();
         let mut remap = |reference: u32| match Child::decode(reference) {
-            Child::Leaf { first, count: 1 } => cluster(first),
-            Child::Leaf { first, count } => {
-                let mut node = BvhNode::EMPTY;
-                for (lane, p) in (first..first + count).enumerate() {
-                    node.children[lane] = cluster(p);
-                    node.set_child_bounds(lane, over_boxes.primitives[p as usize].bounds);
+            Child::Leaf { first, count } => match gather(first, count) {
+                (leaf, 1) => cluster(leaf[0].0),
+                (leaf, n) => {
+                    let mut node = BvhNode::EMPTY;
+                    for (lane, &(c, bounds)) in leaf[..n].iter().enumerate() {
+                        node.children[lane] = cluster(c);
+                        node.set_child_bounds(lane, bounds);
+                    }
+                    group_nodes.push(node);
+                    Child::Inner(first_group + group_nodes.len() as u32 - 1).encode()
                 }
-                group_nodes.push(node);
-                Child::Inner(first_group + group_nodes.len() as u32 - 1).encode()
-            }
+            },
             Child::Inner(n) => Child::Inner(first_top + n).encode(),
             Child::Empty => reference,
         };

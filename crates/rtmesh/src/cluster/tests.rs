@@ -174,8 +174,42 @@ fn a_block_with_a_nan_corner_at_rest_is_traced_once_it_is_finite() {
         }
     }
     let clusters = ClusterMethod::Grow.cluster(&rest, &ClusterSettings::default());
-    let mut frames = ClusterFrames::new(&clusters, Inside::Node, &rest);
-    assert_hits_like_a_rebuild(&mesh, &frames.build(&mesh));
+    for grouping in [Grouping::Frame, Grouping::Rest] {
+        let mut frames =
+            ClusterFrames::new(&clusters, Inside::Node, &rest).grouped(grouping, &rest);
+        assert_hits_like_a_rebuild(&mesh, &frames.build(&mesh));
+    }
+}
+
+/// Grouped at rest, every cluster is in exactly one group of at most 8, the groups
+/// are at most a quarter as many as the clusters, and a cluster with a non-finite box
+/// at rest is a group of its own.
+#[test]
+fn rest_groups_hold_every_cluster_once_up_to_eight() {
+    let mut mesh = crate::scenes::scan_blob(20_000, 3);
+    let clusters = ClusterMethod::Grow.cluster(&mesh, &ClusterSettings::default());
+    for &v in clusters.vertices_of(0) {
+        mesh.positions[v as usize] = Vec3::NAN;
+    }
+    let frames = ClusterFrames::new(&clusters, Inside::Node, &mesh).grouped(Grouping::Rest, &mesh);
+    let mut seen = frames.group_clusters.clone();
+    seen.sort_unstable();
+    assert_eq!(seen, (0..clusters.len() as u32).collect::<Vec<_>>());
+    let sizes: Vec<u32> = frames.group_start.windows(2).map(|w| w[1] - w[0]).collect();
+    assert!(sizes.iter().all(|&n| (1..=8).contains(&n)));
+    assert!(sizes.len() * 4 <= clusters.len(), "{} groups", sizes.len());
+    let alone = frames
+        .group_start
+        .windows(2)
+        .position(|w| frames.group_clusters[w[0] as usize] == 0)
+        .unwrap();
+    assert_eq!(sizes[alone], 1);
+    assert_eq!(
+        ClusterFrames::new(&clusters, Inside::Node, &mesh)
+            .grouped(Grouping::Frame, &mesh)
+            .group_start,
+        Vec::<u32>::new()
+    );
 }
 
 /// `accel` is a valid BVH and its primary rays hit what a rebuild over `mesh` hits (or
@@ -240,7 +274,8 @@ fn cluster_bvh_hits_what_a_rebuild_hits_every_frame() {
 }
 
 /// Every motion at three phases: the cluster BVH, flat (when the clusters fit a leaf)
-/// and with nodes, hits what a rebuild hits. One [`ClusterFrames`] per arrangement
+/// and with nodes, grouped each frame and at rest, hits what a rebuild hits. One
+/// [`ClusterFrames`] per arrangement
 /// serves every frame, its blocks recycled from the frame before, as `rtmesh dynamic`
 /// uses it.
 fn check_frames(mesh: &TriMesh, clusters: &Clusters) {
@@ -248,11 +283,12 @@ fn check_frames(mesh: &TriMesh, clusters: &Clusters) {
         .map(|c| clusters.triangles_of(c).len())
         .max();
     let fits_a_leaf = largest.unwrap_or(0) <= MAX_FLAT_TRIANGLES;
-    for inside in [Inside::Flat, Inside::Node] {
-        if inside == Inside::Flat && !fits_a_leaf {
-            continue;
-        }
-        let mut frames = ClusterFrames::new(clusters, inside, mesh);
+    let arrangements = [Inside::Flat, Inside::Node]
+        .into_iter()
+        .filter(|&inside| inside == Inside::Node || fits_a_leaf)
+        .flat_map(|inside| [(inside, Grouping::Frame), (inside, Grouping::Rest)]);
+    for (inside, grouping) in arrangements {
+        let mut frames = ClusterFrames::new(clusters, inside, mesh).grouped(grouping, mesh);
         for motion in Procedural::ALL {
             let animation = Animation::procedural(mesh, motion);
             for phase in [0.0, 0.5, 1.0] {
@@ -271,7 +307,11 @@ fn check_frames(mesh: &TriMesh, clusters: &Clusters) {
                         .zip(&b)
                         .filter(|(x, y)| x.triangle == y.triangle || x.t == y.t)
                         .count();
-                    assert_eq!(same, a.len(), "{motion:?} at {phase}: {kind:?} {inside:?}");
+                    assert_eq!(
+                        same,
+                        a.len(),
+                        "{motion:?} at {phase}: {kind:?} {inside:?} {grouping:?}"
+                    );
                 }
                 frames.recycle(over_clusters);
             }
