@@ -576,6 +576,7 @@ fn cluster_and_dynamic_keys() {
                 "triangles",
                 "clusters",
                 "precompute_ms",
+                "arrangement",
                 "frames",
                 "total",
             ],

@@ -174,6 +174,15 @@ struct Total {
     trace_ms: f64,
 }
 
+/// The clusters' method and their place in the per-frame BVH.
+#[derive(Clone, Copy, Serialize)]
+struct Arrangement {
+    method: ClusterMethod,
+    max_count: u32,
+    inside: Inside,
+    groups: Grouping,
+}
+
 /// What `dynamic` measured.
 #[derive(Serialize)]
 pub struct Report {
@@ -188,6 +197,8 @@ pub struct Report {
     clusters: Option<usize>,
     /// Milliseconds to find the clusters, once (for `--build clusters`).
     precompute_ms: Option<f64>,
+    /// How the clusters were found and arranged (for `--build clusters`).
+    arrangement: Option<Arrangement>,
     frames: Vec<Frame>,
     total: Total,
 }
@@ -286,6 +297,12 @@ pub fn run(args: Args) -> Result<()> {
                 triangles: mesh.triangle_count(),
                 clusters: clusters.as_ref().filter(|_| is_clusters).map(|c| c.len()),
                 precompute_ms: precompute_ms.filter(|_| is_clusters),
+                arrangement: is_clusters.then_some(Arrangement {
+                    method: args.method,
+                    max_count: args.max_count,
+                    inside,
+                    groups: args.groups,
+                }),
                 total: Total {
                     build_ms: frames.iter().map(|f| f.build_ms).sum(),
                     trace_ms: frames.iter().map(|f| f.trace_ms).sum(),
@@ -536,8 +553,14 @@ fn print(r: &Report) {
         r.build,
         r.ray_kind,
         r.packet,
-        match (r.clusters, r.precompute_ms) {
-            (Some(c), Some(ms)) => format!(" ({c} clusters found in {ms:.1} ms)"),
+        match (r.clusters, r.precompute_ms, r.arrangement) {
+            (Some(c), Some(ms), Some(a)) => format!(
+                " ({c} clusters of up to {} by {} found in {ms:.1} ms; inside {}, groups {})",
+                a.max_count,
+                a.method.name(),
+                a.inside.name(),
+                a.groups.name()
+            ),
             _ => String::new(),
         }
     );

@@ -856,6 +856,16 @@ pub enum Inside {
     Node,
 }
 
+impl Inside {
+    /// The name `--inside` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Flat => "flat",
+            Self::Node => "node",
+        }
+    }
+}
+
 impl Grouping {
     /// The name `--groups` takes.
     pub fn name(self) -> &'static str {
