@@ -13,9 +13,10 @@ use rtmesh_lab::tables::clusters::{cluster_rows, ClusterTable};
 /// meshoptimizer's spatial clusters with the MaxCount (a multiple of 4) whose cluster
 /// count is nearest theirs. All are found on the rest pose and kept through the motion;
 /// at each phase the table gives the SAH cost of the tree the tracer walks over them
-/// (the BVH over cluster boxes plus the node inside each cluster) beside a full
-/// per-triangle rebuild's, and the clusters' vertices per triangle, precompute time
-/// and disconnected clusters.
+/// (the BVH each frame builds over the cluster boxes, as `dynamic --groups frame`, plus
+/// the node inside each cluster: a measure of the clusters, not of groups fixed at
+/// rest) beside a full per-triangle rebuild's, and the clusters' vertices per
+/// triangle, precompute time and disconnected clusters.
 ///
 /// Example:
 ///   rtmesh bench clusters dragon_vrip.ply --motion twist
