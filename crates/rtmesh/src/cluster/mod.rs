@@ -1071,24 +1071,21 @@ impl<'c> ClusterFrames<'c> {
                 group: c as u32,
             })
             .collect();
-        let leaves = Bvh::build(boxes.clone(), &top_settings(Grouping::Frame))
+        let leaves = Bvh::build(boxes, &top_settings(Grouping::Frame))
             .map_leaves(|leaf| leaf.iter().map(|b| b.group).collect::<Vec<u32>>())
             .primitives;
-        // Clusters the build left out (a non-finite box at rest) are a group each.
-        let mut grouped = vec![false; self.clusters.len()];
-        let left_out: Vec<Vec<u32>> = {
-            leaves
-                .iter()
-                .flatten()
-                .for_each(|&c| grouped[c as usize] = true);
-            (0..self.clusters.len() as u32)
-                .filter(|&c| !grouped[c as usize])
-                .map(|c| vec![c])
-                .collect()
-        };
         self.group_start.push(0);
-        for group in leaves.iter().chain(&left_out) {
+        let mut grouped = vec![false; self.clusters.len()];
+        for group in &leaves {
+            for &c in group {
+                grouped[c as usize] = true;
+            }
             self.group_clusters.extend(group);
+            self.group_start.push(self.group_clusters.len() as u32);
+        }
+        // Clusters the build left out (a non-finite box at rest) are a group each.
+        for c in (0..self.clusters.len() as u32).filter(|&c| !grouped[c as usize]) {
+            self.group_clusters.push(c);
             self.group_start.push(self.group_clusters.len() as u32);
         }
         self
