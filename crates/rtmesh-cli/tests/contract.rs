@@ -532,6 +532,7 @@ const CLUSTER_KEYS: &[&str] = &[
     "clusters",
     "mean_triangles",
     "mean_vertices_per_triangle",
+    "floor_vertices_per_triangle",
     "bytes",
     "indexed_bytes",
     "disconnected",

@@ -3,7 +3,7 @@
 use crate::args::load;
 use crate::output::emit;
 use anyhow::Result;
-use rtmesh::cluster::{disconnected, ClusterMethod, ClusterReport, ClusterSettings};
+use rtmesh::cluster::{disconnected, ClusterMethod, ClusterReport, ClusterSettings, Clusters};
 use serde::Serialize;
 
 /// Group a mesh's triangles into clusters for animated meshes: connected, disk-like,
@@ -96,9 +96,11 @@ pub fn run(args: Args) -> Result<()> {
         total.indexed_bytes += r.indexed_bytes;
     }
     let vertices: usize = all.iter().map(|c| c.vertices.len()).sum();
+    let floor_vertices: usize = all.iter().map(Clusters::floor_vertices).sum();
     total.disconnected = disconnected;
     total.mean_triangles = total.triangles as f64 / total.clusters.max(1) as f64;
     total.mean_vertices_per_triangle = vertices as f64 / total.triangles.max(1) as f64;
+    total.floor_vertices_per_triangle = floor_vertices as f64 / total.triangles.max(1) as f64;
     let report = Report {
         mesh: args.mesh,
         refine_passes: (args.refinement.refine_passes > 0 && args.method != ClusterMethod::Meshopt)
@@ -120,8 +122,8 @@ pub fn run(args: Args) -> Result<()> {
             1e6 * c.seconds / c.triangles.max(1) as f64
         );
         println!(
-            "  per cluster  {:.1} triangles, {:.3} vertices per triangle",
-            c.mean_triangles, c.mean_vertices_per_triangle
+            "  per cluster  {:.1} triangles, {:.3} vertices per triangle (at least {:.3} for disks of these sizes on a regular mesh)",
+            c.mean_triangles, c.mean_vertices_per_triangle, c.floor_vertices_per_triangle
         );
         println!(
             "  storage      {} bytes ({:.2} per triangle) against {} as u32 triangles",

@@ -240,6 +240,14 @@ impl Clusters {
         self.vertex_start.push(self.vertices.len() as u32);
     }
 
+    /// The sum over the clusters of [`disk_vertex_floor`] of their sizes: the fewest
+    /// vertices clusters of these sizes could have on a regular mesh.
+    pub fn floor_vertices(&self) -> usize {
+        (0..self.len())
+            .map(|c| disk_vertex_floor(self.triangles_of(c).len()))
+            .sum()
+    }
+
     /// Bytes of this storage: 3 per triangle (u8 indices), 4 per input triangle id, 4
     /// per cluster vertex, 8 per cluster (the two offsets).
     pub fn bytes(&self) -> usize {
@@ -248,6 +256,27 @@ impl Clusters {
             + 4 * self.vertices.len()
             + 8 * self.len()
     }
+}
+
+/// The fewest vertices a disk-shaped patch of `triangles` triangles can have on a
+/// regular mesh (every inner vertex of valence 6, as a scan's are on average). Euler's
+/// formula for a disk, V − E + F = 1, with 3F = 2E − B for its B boundary edges, gives
+/// V = 1 + (F + B) / 2, and B is at least the least perimeter of a polyiamond of F
+/// cells, 2⌈(F + √(6F)) / 2⌉ − F (Harary and Harborth, "Extremal animals", 1976):
+/// the smallest B ≥ √(6F) with the parity of F. So 32 triangles need at least 24
+/// vertices, 0.75 a triangle, and fewer triangles need more a triangle. The floor is
+/// for disks on such a mesh: a patch with holes, or around vertices of higher valence,
+/// can have fewer.
+pub fn disk_vertex_floor(triangles: usize) -> usize {
+    if triangles == 0 {
+        return 0;
+    }
+    let f = triangles;
+    let mut b = (6.0 * f as f64).sqrt() as usize;
+    while b * b < 6 * f || !(b + f).is_multiple_of(2) {
+        b += 1;
+    }
+    1 + (f + b) / 2
 }
 
 /// Figures of a clustering, with the keys of `rtmesh cluster --json`.
@@ -261,6 +290,10 @@ pub struct ClusterReport {
     pub mean_triangles: f64,
     /// Cluster vertices over triangles (0.5 for a large regular patch).
     pub mean_vertices_per_triangle: f64,
+    /// The least `mean_vertices_per_triangle` clusters of the same sizes could have on
+    /// a regular mesh ([`Clusters::floor_vertices`]): what fuller clusters, not better
+    /// shaped ones, would lower.
+    pub floor_vertices_per_triangle: f64,
     /// Bytes of the cluster storage ([`Clusters::bytes`]).
     pub bytes: usize,
     /// Bytes of the same triangles as three u32 indices each.
@@ -280,6 +313,7 @@ impl ClusterReport {
             clusters: clusters.len(),
             mean_triangles: triangles as f64 / clusters.len().max(1) as f64,
             mean_vertices_per_triangle: clusters.vertices.len() as f64 / triangles.max(1) as f64,
+            floor_vertices_per_triangle: clusters.floor_vertices() as f64 / triangles.max(1) as f64,
             bytes: clusters.bytes(),
             indexed_bytes: 12 * triangles,
             disconnected: 0,

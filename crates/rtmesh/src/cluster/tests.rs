@@ -68,6 +68,50 @@ fn grid_clusters_are_valid_compact_and_small() {
     }
 }
 
+/// The disk floor on hand-counted patches of the valence-6 lattice: a triangle (3
+/// vertices), a rhombus (4), a strip of three (5), a triangle of side 2 (6), a hexagon
+/// (7), a 2 × 2 block of `quad_grid` (9), a hexagon of side 2 (19), and the issue's
+/// 32 triangles at 24 (0.75 a triangle).
+#[test]
+fn the_disk_floor_is_euler_with_the_least_polyiamond_perimeter() {
+    let floors: Vec<usize> = [0, 1, 2, 3, 4, 6, 8, 24, 32]
+        .map(disk_vertex_floor)
+        .to_vec();
+    assert_eq!(floors, vec![0, 3, 4, 5, 6, 7, 9, 19, 24]);
+    // quad_grid(2) is the 2 × 2 block: 8 triangles on 9 vertices, the floor exactly.
+    let block = crate::scenes::quad_grid(2);
+    assert_eq!(block.positions.len(), disk_vertex_floor(8));
+}
+
+/// quad_grid's diagonals make every inner vertex of valence 6, so no connected cluster
+/// of its triangles (none with holes on a grid this open) has fewer vertices than the
+/// disk floor of its size.
+#[test]
+fn grid_clusters_have_at_least_the_disk_floor_of_vertices() {
+    let mesh = crate::scenes::quad_grid(40);
+    for max_triangles in [8, 32, 128] {
+        let settings = ClusterSettings {
+            max_triangles,
+            ..ClusterSettings::default()
+        };
+        for method in BY_ACCEPTANCE {
+            let clusters = method.cluster(&mesh, &settings);
+            for c in 0..clusters.len() {
+                let (t, v) = (
+                    clusters.triangles_of(c).len(),
+                    clusters.vertices_of(c).len(),
+                );
+                assert!(
+                    v >= disk_vertex_floor(t),
+                    "{method}: {t} triangles on {v} vertices"
+                );
+            }
+            let report = ClusterReport::of(&clusters, 0.0);
+            assert!(report.floor_vertices_per_triangle <= report.mean_vertices_per_triangle);
+        }
+    }
+}
+
 /// Contraction on a hand-built strip of four triangles along a row of quads, with a
 /// MaxCount of 2: the two quads become the two clusters, each quad's halves together
 /// (the pair of largest Acc: the most compact, flat and vertex-sharing union).
