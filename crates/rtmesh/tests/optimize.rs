@@ -246,11 +246,14 @@ fn the_same_rays_hit_the_same_input_triangles() {
         let out = run(&scene, &options);
         let same = out.report.same_hits.as_ref().unwrap();
         assert_eq!(same.different, 0, "{name}: {same:?}");
-        assert_eq!(same.rays, 64 * 64);
         let (before, after) = (
             out.report.before.as_ref().unwrap(),
             out.report.after.as_ref().unwrap(),
         );
+        // Every primary ray measured is checked: 64 × 64, or fewer where the time
+        // budget shrank the image (it does on a loaded machine, whose pilots run slow).
+        assert_eq!(same.rays, before.primary.rays, "{name}");
+        assert!(same.rays > 0 && same.rays <= 64 * 64, "{name}: {same:?}");
         assert!(
             after.primary.pair_tests_per_ray > 0.0,
             "{name}: pair leaves traced"
