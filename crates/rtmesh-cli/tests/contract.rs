@@ -916,6 +916,7 @@ fn bench_clusters_matches_counts_and_keeps_its_keys() {
             "clusters",
             "mean_triangles",
             "mean_vertices_per_triangle",
+            "floor_vertices_per_triangle",
             "disconnected",
             "precompute_seconds",
             "precompute_us_per_triangle",

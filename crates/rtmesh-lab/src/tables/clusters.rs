@@ -46,6 +46,9 @@ pub struct ClusterRow {
     pub mean_triangles: f64,
     /// Cluster vertices over triangles.
     pub mean_vertices_per_triangle: f64,
+    /// The least of it for clusters of the same sizes on a regular mesh
+    /// (`rtmesh::cluster::disk_vertex_floor`).
+    pub floor_vertices_per_triangle: f64,
     /// Clusters not connected through shared edges.
     pub disconnected: usize,
     /// Seconds to find the clusters.
@@ -107,6 +110,7 @@ pub fn cluster_rows(
             clusters: report.clusters,
             mean_triangles: report.mean_triangles,
             mean_vertices_per_triangle: report.mean_vertices_per_triangle,
+            floor_vertices_per_triangle: report.floor_vertices_per_triangle,
             disconnected: disconnected(mesh, clusters),
             precompute_seconds: s,
             precompute_us_per_triangle: 1e6 * s / mesh.triangle_count().max(1) as f64,

@@ -60,13 +60,14 @@ pub fn run(args: Args) -> Result<()> {
             .map(|p| format!("{:>7}", format!("SAH@{p}")))
             .collect();
         println!(
-            "{:<22} {:<22} {:>4} {:>8} {:>6} {:>6} {:>5} {:>7}  {}",
+            "{:<22} {:<22} {:>4} {:>8} {:>6} {:>6} {:>6} {:>5} {:>7}  {}",
             "mesh",
             "method",
             "max",
             "clusters",
             "tri/c",
             "v/tri",
+            "floor",
             "disc",
             "µs/tri",
             phases.join(" ")
@@ -87,7 +88,7 @@ pub fn run(args: Args) -> Result<()> {
                     .map(|s| format!("{s:>7.2}"))
                     .collect();
                 println!(
-                    "{:<22} {:<22} {:>41}  {}",
+                    "{:<22} {:<22} {:>48}  {}",
                     file_name(name),
                     "rebuild",
                     "",
@@ -104,13 +105,14 @@ pub fn run(args: Args) -> Result<()> {
                     };
                     let sah: Vec<String> = row.sah.iter().map(|s| format!("{s:>7.2}")).collect();
                     println!(
-                        "{:<22} {:<22} {:>4} {:>8} {:>6.1} {:>6.3} {:>5} {:>7.3}  {}",
+                        "{:<22} {:<22} {:>4} {:>8} {:>6.1} {:>6.3} {:>6.3} {:>5} {:>7.3}  {}",
                         row.mesh,
                         method,
                         row.max_triangles,
                         row.clusters,
                         row.mean_triangles,
                         row.mean_vertices_per_triangle,
+                        row.floor_vertices_per_triangle,
                         row.disconnected,
                         row.precompute_us_per_triangle,
                         sah.join(" ")
