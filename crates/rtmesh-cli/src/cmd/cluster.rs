@@ -3,7 +3,7 @@
 use crate::args::load;
 use crate::output::emit;
 use anyhow::Result;
-use rtmesh::cluster::{disconnected, ClusterMethod, ClusterReport, ClusterSettings, Clusters};
+use rtmesh::cluster::{disconnected, ClusterMethod, ClusterReport, ClusterSettings};
 use serde::Serialize;
 
 /// Group a mesh's triangles into clusters for animated meshes: connected, disk-like,
@@ -87,20 +87,10 @@ pub fn run(args: Args) -> Result<()> {
         .zip(&all)
         .map(|(m, c)| disconnected(m, c))
         .sum();
-    let mut total = ClusterReport::of(&Default::default(), seconds);
-    for clusters in &all {
-        let r = ClusterReport::of(clusters, 0.0);
-        total.triangles += r.triangles;
-        total.clusters += r.clusters;
-        total.bytes += r.bytes;
-        total.indexed_bytes += r.indexed_bytes;
-    }
-    let vertices: usize = all.iter().map(|c| c.vertices.len()).sum();
-    let floor_vertices: usize = all.iter().map(Clusters::floor_vertices).sum();
-    total.disconnected = disconnected;
-    total.mean_triangles = total.triangles as f64 / total.clusters.max(1) as f64;
-    total.mean_vertices_per_triangle = vertices as f64 / total.triangles.max(1) as f64;
-    total.floor_vertices_per_triangle = floor_vertices as f64 / total.triangles.max(1) as f64;
+    let total = ClusterReport {
+        disconnected,
+        ..ClusterReport::of_all(&all, seconds)
+    };
     let report = Report {
         mesh: args.mesh,
         refine_passes: (args.refinement.refine_passes > 0 && args.method != ClusterMethod::Meshopt)

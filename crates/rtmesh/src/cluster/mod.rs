@@ -307,14 +307,23 @@ pub struct ClusterReport {
 impl ClusterReport {
     /// The figures of `clusters`, found in `seconds`.
     pub fn of(clusters: &Clusters, seconds: f64) -> Self {
-        let triangles = clusters.local_triangles.len();
+        Self::of_all(std::slice::from_ref(clusters), seconds)
+    }
+
+    /// The figures of the clusters of several meshes together, all found in `seconds`:
+    /// counts and bytes summed, means over every triangle and cluster.
+    pub fn of_all(all: &[Clusters], seconds: f64) -> Self {
+        let sum = |f: fn(&Clusters) -> usize| all.iter().map(f).sum::<usize>();
+        let triangles = sum(|c| c.local_triangles.len());
+        let clusters = sum(Clusters::len);
+        let per_triangle = |n: usize| n as f64 / triangles.max(1) as f64;
         Self {
             triangles,
-            clusters: clusters.len(),
-            mean_triangles: triangles as f64 / clusters.len().max(1) as f64,
-            mean_vertices_per_triangle: clusters.vertices.len() as f64 / triangles.max(1) as f64,
-            floor_vertices_per_triangle: clusters.floor_vertices() as f64 / triangles.max(1) as f64,
-            bytes: clusters.bytes(),
+            clusters,
+            mean_triangles: triangles as f64 / clusters.max(1) as f64,
+            mean_vertices_per_triangle: per_triangle(sum(|c| c.vertices.len())),
+            floor_vertices_per_triangle: per_triangle(sum(Clusters::floor_vertices)),
+            bytes: sum(Clusters::bytes),
             indexed_bytes: 12 * triangles,
             disconnected: 0,
             seconds,

@@ -68,6 +68,34 @@ fn grid_clusters_are_valid_compact_and_small() {
     }
 }
 
+/// The report over two meshes' clusters sums their counts and bytes and takes its
+/// means over all their triangles: a 4 × 4 grid (32 triangles) and a 2 × 2 block (8 on 9
+/// vertices) clustered whole with MaxCount 32.
+#[test]
+fn the_report_over_several_meshes_sums_and_averages_over_all() {
+    let settings = ClusterSettings::default();
+    let all = [crate::scenes::quad_grid(4), crate::scenes::quad_grid(2)]
+        .map(|m| ClusterMethod::Grow.cluster(&m, &settings));
+    let (one, two) = (
+        ClusterReport::of(&all[0], 0.0),
+        ClusterReport::of(&all[1], 0.0),
+    );
+    let both = ClusterReport::of_all(&all, 1.5);
+    assert_eq!(both.triangles, 40);
+    assert_eq!(both.clusters, one.clusters + two.clusters);
+    assert_eq!(both.bytes, one.bytes + two.bytes);
+    assert_eq!(both.indexed_bytes, 12 * 40);
+    assert_eq!(both.seconds, 1.5);
+    let vertices = all[0].vertices.len() + all[1].vertices.len();
+    assert_eq!(both.mean_vertices_per_triangle, vertices as f64 / 40.0);
+    assert_eq!(
+        both.mean_triangles,
+        40.0 / (one.clusters + two.clusters) as f64
+    );
+    let floor = all[0].floor_vertices() + all[1].floor_vertices();
+    assert_eq!(both.floor_vertices_per_triangle, floor as f64 / 40.0);
+}
+
 /// The disk floor on hand-counted patches of the valence-6 lattice: a triangle (3
 /// vertices), a rhombus (4), a strip of three (5), a triangle of side 2 (6), a hexagon
 /// (7), a 2 × 2 block of `quad_grid` (9), a hexagon of side 2 (19), and the issue's
