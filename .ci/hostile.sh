@@ -53,6 +53,36 @@ for file in *.obj *.ply *.gltf *.glb *.stl; do
     fi
   done
 done
+# Amplification, where the answer depends on the subcommand: WANT is ok, or the words
+# the error must hold (besides the file's name).
+expect() {
+  local file="$1" want="$2"
+  shift 2
+  out="$( (ulimit -v 4194304; timeout 30 "$rtmesh" "$1" "$file" "${@:2}" --json) 2> "$work/stderr")"
+  rc=$?
+  err="$(cat "$work/stderr")"
+  checked=$((checked + 1))
+  if [ "$want" = ok ]; then
+    [ "$rc" = 0 ] || problem="expected success, got rc $rc: $err"
+  else
+    { [ "$rc" = 1 ] && grep -q "$file" <<< "$err" && grep -q "$want" <<< "$err"; } \
+      || problem="expected an error naming the file with '$want', got rc $rc: $err"
+  fi
+  if [ -n "${problem:-}" ]; then
+    echo "FAIL $file / $*: $problem"
+    failed=$((failed + 1))
+    problem=""
+  fi
+}
+expect amp-instances.gltf ok trace --size 64x64 --runs 1
+expect amp-instances.gltf ok convert "$work/instances.glb"
+expect amp-instances.gltf "cannot flatten" strip
+expect amp-instances.gltf "cannot flatten" trace --leaf strip --size 64x64 --runs 1
+expect amp-instances.gltf "cannot flatten" convert "$work/instances.obj"
+expect amp-instances.gltf "cannot flatten" convert "$work/instances.ply"
+expect amp-channels.gltf ok info
+expect amp-channels.gltf "over and over" dynamic --motion gltf --frames 2 --size 16x16 --runs 1
+expect amp-channels.gltf "over and over" animate --motion gltf --frames 2 -o "$work/frames"
 files=$(ls *.obj *.ply *.gltf *.glb *.stl | wc -l)
-echo "hostile-input suite: $files files x ${#subcommands[@]} subcommands = $checked runs, $failed failed"
+echo "hostile-input suite: $files files x ${#subcommands[@]} subcommands and $((checked - files * ${#subcommands[@]})) checks by subcommand = $checked runs, $failed failed"
 [ "$failed" = 0 ]

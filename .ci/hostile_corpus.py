@@ -2,9 +2,10 @@
 
 File names say what rtmesh must do with each: `refuse-*` fail with an error that names
 the file and the refused reference; `error-*` fail with an error that names the file;
-`ok-*` succeed; `any-*` succeed or fail cleanly (empty files). Every class of failure in
+`ok-*` succeed; `any-*` succeed or fail cleanly (empty files); `amp-*` (amplification) have
+expectations by subcommand in `.ci/hostile.sh`. Every class of failure in
 issue 36, and something for every reader."""
-import json, math, os, struct, sys
+import base64, json, math, os, struct, sys
 
 root = sys.argv[1]
 asset = os.path.join(root, "asset")
@@ -101,3 +102,46 @@ with open(os.path.join(asset, "ok-fan.obj"), "w") as f:
     f.write("v 0 0 0\n")
     f.write("".join(f"v {math.cos(2 * math.pi * k / n)} {math.sin(2 * math.pi * k / n)} 0\n" for k in range(n)))
     f.write("".join(f"f 1 {k + 2} {(k + 1) % n + 2}\n" for k in range(n)))
+
+# Amplification: a small file that names one accessor from thousands of places.
+def data_uri(b):
+    return "data:application/octet-stream;base64," + base64.b64encode(b).decode()
+
+
+def scene_doc(data, views, accessors, meshes, nodes, **extra):
+    doc = {"asset": {"version": "2.0"}, "buffers": [{"uri": data_uri(data), "byteLength": len(data)}],
+           "bufferViews": views, "accessors": accessors, "meshes": meshes, "nodes": nodes,
+           "scenes": [{"nodes": [0]}], "scene": 0}
+    doc.update(extra)
+    return json.dumps(doc)
+
+
+n = 30_000  # 10,000 triangles without indices
+soup = b"".join(struct.pack("<3f", k * 1e-3 + (k % 3 == 1), float(k % 3 == 2), 0) for k in range(n))
+soup_accessor = {"bufferView": 0, "componentType": 5126, "count": n, "type": "VEC3",
+                 "min": [0, 0, 0], "max": [31, 1, 0]}
+# 2,000 primitives on one accessor: 20 M triangles out of 0.5 MB.
+write("error-amp-primitives.gltf", scene_doc(
+    soup, [{"buffer": 0, "byteLength": len(soup)}], [soup_accessor],
+    [{"primitives": [{"attributes": {"POSITION": 0}}] * 2000}], [{"mesh": 0}]))
+# 10,000 placements of one 10,000-triangle mesh: 100 M triangles once flattened
+# (tracing keeps instances; the one-level writers and strips refuse).
+write("amp-instances.gltf", scene_doc(
+    soup, [{"buffer": 0, "byteLength": len(soup)}], [soup_accessor],
+    [{"primitives": [{"attributes": {"POSITION": 0}}]}],
+    [{"children": list(range(1, 10_001))}] + [{"mesh": 0, "translation": [k, 0, 0]} for k in range(10_000)]))
+# 4,000 animation channels on one pair of 100,000-key accessors: 6.4 GB of keys.
+keys = 100_000
+times = struct.pack(f"<{keys}f", *[k / 30 for k in range(keys)])
+moves = bytes(12 * keys)
+animated = corners + times + moves
+write("amp-channels.gltf", scene_doc(
+    animated,
+    [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": len(times)},
+     {"buffer": 0, "byteOffset": 36 + len(times), "byteLength": len(moves)}],
+    [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+     {"bufferView": 1, "componentType": 5126, "count": keys, "type": "SCALAR", "min": [0], "max": [(keys - 1) / 30]},
+     {"bufferView": 2, "componentType": 5126, "count": keys, "type": "VEC3"}],
+    [{"primitives": [{"attributes": {"POSITION": 0}}]}], [{"mesh": 0}],
+    animations=[{"samplers": [{"input": 1, "output": 2}],
+                 "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}] * 4000}]))

@@ -36,7 +36,10 @@ pub fn mesh_data_dir() -> Option<PathBuf> {
 pub fn dragon_or_blob() -> (String, crate::TriMesh) {
     let dir = mesh_data_dir().unwrap_or_default();
     match crate::io::read(&dir.join("dragon_vrip.ply")) {
-        Ok(scene) => ("dragon_vrip (871k tris)".into(), scene.flatten()),
+        Ok(scene) => (
+            "dragon_vrip (871k tris)".into(),
+            scene.flatten().expect("the dragon is one mesh"),
+        ),
         Err(e) => {
             eprintln!("note: {e}; using the procedural blob");
             (

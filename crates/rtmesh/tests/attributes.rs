@@ -44,7 +44,7 @@ fn same_corners(out: &TriMesh, t: usize, input: &TriMesh, u: usize) -> bool {
 /// triangles, so there the lists are compared sorted (each triangle rotated to start
 /// at its least corner, winding kept).
 fn assert_same_flat(out: &Scene, input: &Scene, what: &str) {
-    let (o, i) = (out.flatten(), input.flatten());
+    let (o, i) = (out.flatten().unwrap(), input.flatten().unwrap());
     assert_eq!(o.triangle_count(), i.triangle_count(), "{what}: triangles");
     let mut names: Vec<&str> = o.attributes.iter().map(|a| a.name.as_str()).collect();
     let mut theirs: Vec<&str> = i.attributes.iter().map(|a| a.name.as_str()).collect();

@@ -77,7 +77,8 @@ fn welding_joins_split_vertices() {
     // 34,834 used vertices.
     let bunny = rtmesh::io::read(&dir.join("stanford-bunny.obj"))
         .unwrap()
-        .flatten();
+        .flatten()
+        .unwrap();
     let rewelded = weld_exact(&soup(&bunny));
     assert_eq!(rewelded.mesh.positions.len(), 34_834);
     let adjacency = rtmesh::mesh::EdgeAdjacency::build(&rewelded.mesh);
@@ -108,11 +109,11 @@ fn real_meshes_round_trip_bit_exact() {
         "sponza_dabrovic.obj",
     ] {
         let scene = rtmesh::io::read(&dir.join(file)).unwrap();
-        let flat = scene.flatten();
+        let flat = scene.flatten().unwrap();
         for extension in ["obj", "ply", "glb"] {
             let path = out.join(format!("{file}.{extension}"));
             rtmesh::io::write(&scene, &path).unwrap();
-            let back = rtmesh::io::read(&path).unwrap().flatten();
+            let back = rtmesh::io::read(&path).unwrap().flatten().unwrap();
             assert_eq!(
                 back.triangle_count(),
                 flat.triangle_count(),
@@ -146,7 +147,7 @@ fn pairing_on_scanned_meshes() {
         ("dragon_vrip.ply", 781_324, 528_628, 871_000, Some(871_306)),
     ] {
         let scene = rtmesh::io::read(&dir.join(file)).unwrap();
-        let mesh = weld_exact(&scene.flatten()).mesh;
+        let mesh = weld_exact(&scene.flatten().unwrap()).mesh;
         let fast = greedy::pair_sah(&mesh);
         assert_eq!(fast, greedy::pair_sah_reference(&mesh), "{file}");
         assert_eq!(fast.paired_triangles(), sah, "{file}");
@@ -255,7 +256,8 @@ fn packets_and_intersectors_on_real_meshes() {
     // (11k triangles give many near ties between lanes of one test).
     let mesh = rtmesh::io::read(&dir.join("dragon_vrip_res4.ply"))
         .unwrap()
-        .flatten();
+        .flatten()
+        .unwrap();
     let soa = TriangleSoa::from_mesh(&mesh);
     let camera = Camera::default_for(&rtmesh::Aabb::from_points(&mesh.positions), 64, 64);
     let (work, _) = Workload::primary_packets(&camera, 64, 64, 2);
@@ -322,7 +324,7 @@ fn stl_gives_the_counts_of_the_same_mesh_in_obj() {
             ),
             "{file}"
         );
-        let (flat, soup) = (scene.flatten(), back.flatten());
+        let (flat, soup) = (scene.flatten().unwrap(), back.flatten().unwrap());
         for t in 0..flat.triangle_count() {
             assert_eq!(flat.corners(t), soup.corners(t), "{file} triangle {t}");
         }
@@ -346,7 +348,7 @@ fn real_meshes_strip_within_the_index_targets() {
         ("sponza_dabrovic.obj", 1.15),
     ] {
         let scene = rtmesh::io::read(&dir.join(file)).unwrap_or_else(|e| panic!("{e}"));
-        let mesh = weld_exact(&scene.flatten()).mesh;
+        let mesh = weld_exact(&scene.flatten().unwrap()).mesh;
         let strips = sah::stripify(&mesh, &sah::StripSettings::default());
         let mut sources = strips.triangle_source.clone();
         sources.sort_unstable();

@@ -221,3 +221,99 @@ fn an_asset_root_above_the_folder_lets_references_climb_to_it_and_no_further() {
     assert!(message.contains("refers to '../canary.bin'"), "{message}");
     std::fs::remove_dir_all(&root).ok();
 }
+
+/// A glTF in `asset` whose buffer `name.bin` holds `data`, with the views, accessors,
+/// meshes and extra top-level fields given; its path.
+fn gltf_file(asset: &Path, name: &str, data: &[u8], body: &str) -> PathBuf {
+    std::fs::write(asset.join(format!("{name}.bin")), data).unwrap();
+    let path = asset.join(format!("{name}.gltf"));
+    let doc = format!(
+        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{name}.bin","byteLength":{}}}],
+        "nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0,{body}}}"#,
+        data.len()
+    );
+    std::fs::write(&path, doc).unwrap();
+    path
+}
+
+/// Primitives that name one accessor read it again each time: a few do (a file may read
+/// twice its buffers, plus 16 MiB), two hundred of a 30,000-vertex soup (24 MB of
+/// corners from a 360 kB buffer) are refused, naming the primitive.
+#[test]
+fn one_accessor_named_by_many_primitives_is_refused_past_the_read_budget() {
+    let (root, asset) = sandbox("amp-primitives");
+    let n = 30_000;
+    let soup: Vec<u8> = (0..n)
+        .flat_map(|k| {
+            [
+                k as f32 * 1e-3 + (k % 3 == 1) as u8 as f32,
+                (k % 3 == 2) as u8 as f32,
+                0.0,
+            ]
+        })
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    let with = |primitives: usize| {
+        let primitive = r#"{"attributes":{"POSITION":0}}"#;
+        let body = format!(
+            r#""bufferViews":[{{"buffer":0,"byteLength":{}}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":{n},"type":"VEC3","min":[0,0,0],"max":[31,1,0]}}],
+            "meshes":[{{"primitives":[{}]}}]"#,
+            soup.len(),
+            vec![primitive; primitives].join(",")
+        );
+        gltf_file(&asset, &format!("soup{primitives}"), &soup, &body)
+    };
+    let few = rtmesh::io::read(&with(4)).unwrap();
+    assert_eq!(few.meshes[0].triangle_count(), 4 * n / 3);
+    let message = error_reading(&with(200));
+    assert!(
+        message.contains("soup200.gltf")
+            && message.contains("primitive")
+            && message.contains("over and over"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(root).ok();
+}
+
+/// Channels that share one sampler's 100,000 key times read them once; their outputs
+/// count each time. 14 channels read 17 MB of a 20 MB budget (22 MB if the shared times
+/// counted each time); 20 are refused, naming the channel.
+#[test]
+fn animation_channels_share_key_times_and_are_refused_past_the_read_budget() {
+    use rtmesh::animate::{Animation, Motion};
+    let (root, asset) = sandbox("amp-channels");
+    let keys = 100_000;
+    let mut data: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .into_iter()
+        .chain((0..keys).map(|k| k as f32 / 30.0))
+        .flat_map(f32::to_le_bytes)
+        .collect();
+    data.resize(36 + 16 * keys, 0);
+    let with = |channels: usize| {
+        let channel = r#"{"sampler":0,"target":{"node":0,"path":"translation"}}"#;
+        let body = format!(
+            r#""bufferViews":[{{"buffer":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":{}}},{{"buffer":0,"byteOffset":{},"byteLength":{}}}],
+            "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}},
+              {{"bufferView":1,"componentType":5126,"count":{keys},"type":"SCALAR","min":[0],"max":[{}]}},
+              {{"bufferView":2,"componentType":5126,"count":{keys},"type":"VEC3"}}],
+            "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+            "animations":[{{"samplers":[{{"input":1,"output":2}}],"channels":[{}]}}]"#,
+            4 * keys,
+            36 + 4 * keys,
+            12 * keys,
+            (keys - 1) as f32 / 30.0,
+            vec![channel; channels].join(",")
+        );
+        let path = gltf_file(&asset, &format!("channels{channels}"), &data, &body);
+        let scene = rtmesh::io::read(&path).unwrap();
+        Animation::of(&scene, &Motion::Gltf(None)).map(|_| ())
+    };
+    assert!(with(14).is_ok());
+    let message = with(20).unwrap_err().to_string();
+    assert!(
+        message.contains("channel") && message.contains("over and over"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(root).ok();
+}

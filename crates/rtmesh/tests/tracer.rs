@@ -274,7 +274,7 @@ fn small_real_meshes_match_brute_force() {
 #[test]
 fn two_levels_equal_the_flattened_scene() {
     let room = rtmesh::scenes::room();
-    let flat = Scene::from_mesh(room.flatten());
+    let flat = Scene::from_mesh(room.flatten().unwrap());
     let two = SceneAccel::build(&room, &BuildSettings::default());
     let one = SceneAccel::build(&flat, &BuildSettings::default());
     assert!(two.tlas.is_some() && one.tlas.is_none());

@@ -2,7 +2,7 @@
 
 use crate::args::load;
 use crate::output::{emit, write_mesh};
-use anyhow::Result;
+use anyhow::{Context, Result};
 use serde::Serialize;
 use std::path::PathBuf;
 
@@ -48,7 +48,7 @@ pub fn run(args: Args) -> Result<()> {
             *mesh = result.mesh;
         }
     }
-    write_mesh(&scene, &args.output)?;
+    write_mesh(&scene, &args.output).with_context(|| format!("converting {}", args.input))?;
     let report = Report {
         input: args.input,
         output: args.output,

@@ -136,7 +136,9 @@ pub fn run(args: Args) -> Result<()> {
         rtmesh::io::write_gltf_strips(&scene, &all, path)?;
         (all, native, seconds)
     } else {
-        let mesh = weld_exact(&scene.flatten()).mesh;
+        let flat = (scene.flatten())
+            .with_context(|| format!("{}: cannot flatten the scene", args.mesh))?;
+        let mesh = weld_exact(&flat).mesh;
         let start = std::time::Instant::now();
         let (strips, native) = strips_by(&mesh, &args.method, &settings)?;
         let seconds = start.elapsed().as_secs_f64();

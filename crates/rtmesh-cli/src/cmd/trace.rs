@@ -2,7 +2,7 @@
 
 use crate::args::{load, parse_size, CameraArg, Intersector, Rays};
 use crate::output::emit;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::ValueEnum;
 use rtmesh::bvh::BuildSettings;
 use rtmesh::pair::PairMethod;
@@ -130,7 +130,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let scene = load(&args.mesh)?;
     let (width, height) = args.size;
-    let (bvh, run, threads) = with_threads(args.threads, || {
+    let (bvh, run, threads) = with_threads(args.threads, || -> Result<_> {
         let triangles = SceneAccel::build(&scene, &BuildSettings::default());
         let work = Workload::generate_from(
             args.camera.view,
@@ -141,7 +141,8 @@ pub fn run(args: Args) -> Result<()> {
             1,
         );
         let (stats, run) = if args.leaf == Leaf::Strip {
-            let accel = strip_accel(&scene);
+            let accel = strip_accel(&scene)
+                .with_context(|| format!("{}: cannot flatten the scene", args.mesh))?;
             (accel.0, measure(&accel.1, &work, args.runs))
         } else if args.leaf == Leaf::Pair {
             let (welded, pairings) = rtmesh::pair::weld_and_pair(&scene, args.pair_method);
@@ -160,8 +161,8 @@ pub fn run(args: Args) -> Result<()> {
         } else {
             (triangles.stats(), measure(&triangles, &work, args.runs))
         };
-        (stats, run, rayon::current_num_threads())
-    });
+        Ok((stats, run, rayon::current_num_threads()))
+    })?;
     let report = Report {
         mesh: args.mesh,
         ray_kind: kind.name(),
@@ -183,8 +184,8 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 /// The scene as Strip-RT strips traced directly, and the figures of its hierarchy.
-fn strip_accel(scene: &rtmesh::Scene) -> (AccelStats, StripAccel) {
-    let mesh = rtmesh::mesh::weld_exact(&scene.flatten()).mesh;
+fn strip_accel(scene: &rtmesh::Scene) -> Result<(AccelStats, StripAccel)> {
+    let mesh = rtmesh::mesh::weld_exact(&scene.flatten()?).mesh;
     let strips = rtmesh::strip::sah::stripify(&mesh, &Default::default());
     let accel = StripAccel::build(&mesh.positions, &strips, 1, Inside::Quantized)
         .expect("the default maximum length is within the tracer's");
@@ -199,7 +200,7 @@ fn strip_accel(scene: &rtmesh::Scene) -> (AccelStats, StripAccel) {
         bytes_per_triangle: bytes as f64 / mesh.triangle_count().max(1) as f64,
         depth: bvh.depth,
     };
-    (stats, accel)
+    Ok((stats, accel))
 }
 
 fn print(report: &Report) {

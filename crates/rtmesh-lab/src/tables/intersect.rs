@@ -6,6 +6,7 @@
 
 use crate::harness::{median, seconds};
 use rayon::prelude::*;
+use rtmesh::mesh::TooManyToFlatten;
 use rtmesh::trace::intersect::{closest_without_bvh_by_kind, IntersectorKind, Simd, TriangleSoa};
 use rtmesh::trace::{Camera, Hit, Workload};
 use rtmesh::{Ray, Scene};
@@ -76,13 +77,13 @@ pub fn intersect_rows(
     side: usize,
     kinds: &[IntersectorKind],
     runs: usize,
-) -> Vec<IntersectRow> {
+) -> Result<Vec<IntersectRow>, TooManyToFlatten> {
     let kinds = if kinds.is_empty() {
         IntersectorKind::ALL.to_vec()
     } else {
         kinds.to_vec()
     };
-    let flat = scene.flatten();
+    let flat = scene.flatten()?;
     let soa = TriangleSoa::from_mesh(&flat);
     let camera = Camera::default_for(&scene.bounds(), width, height);
     let (work, _) = Workload::primary_packets(&camera, width, height, side);
@@ -122,5 +123,5 @@ pub fn intersect_rows(
             });
         }
     }
-    rows
+    Ok(rows)
 }

@@ -8,6 +8,7 @@
 
 use crate::harness::{alternate, median, same_triangle_share, seconds};
 use rtmesh::bvh::BuildSettings;
+use rtmesh::mesh::TooManyToFlatten;
 use rtmesh::pair::PairMethod;
 use rtmesh::progress::Progress;
 use rtmesh::strip::{meshopt, sah, Strips};
@@ -141,8 +142,8 @@ pub fn strip_rows(
     scene: &Scene,
     table: &StripTable,
     progress: &dyn Progress,
-) -> Vec<StripRow> {
-    let mesh = rtmesh::mesh::weld_exact(&scene.flatten()).mesh;
+) -> Result<Vec<StripRow>, TooManyToFlatten> {
+    let mesh = rtmesh::mesh::weld_exact(&scene.flatten()?).mesh;
     let flat = Scene::from_mesh(mesh.clone());
     let n = mesh.triangle_count().max(1) as f64;
     let max_length = table.max_length.clamp(1, MAX_TRACED_LENGTH);
@@ -243,5 +244,5 @@ pub fn strip_rows(
             });
         }
     }
-    rows
+    Ok(rows)
 }

@@ -22,7 +22,7 @@
 //! frame: O(channels · log keys + nodes + Σ vertices · (4 · joint sets + targets)).
 
 use super::AnimationError;
-use crate::io::gltf::check_accessor;
+use crate::io::gltf::{check_accessor, ReadBudget};
 use crate::io::{Document, GltfDocument};
 use crate::mesh::{morph_name, Scene, TriMesh};
 use glam::{Mat3, Mat4, Quat, Vec3, Vec4};
@@ -62,7 +62,7 @@ struct Channel {
     node: usize,
     path: Path,
     interpolation: Interpolation,
-    times: Vec<f32>,
+    times: std::sync::Arc<[f32]>,
     /// `width` floats per key, or 3·`width` for CUBICSPLINE (in-tangent, value,
     /// out-tangent).
     values: Vec<f32>,
@@ -146,6 +146,10 @@ impl GltfMotion {
             }
         })?;
         let buffer = |b: gltf::Buffer| buffers.get(b.index()).map(|d| &d[..]);
+        // Channels commonly share their samplers' key times: each input is read once.
+        let mut budget = ReadBudget::new(buffers.iter().map(Vec::len).sum());
+        let mut inputs: std::collections::HashMap<usize, std::sync::Arc<[f32]>> =
+            Default::default();
         let typed = |accessor: &gltf::Accessor,
                      what: &str,
                      dimensions: Dimensions,
@@ -256,11 +260,28 @@ impl GltfMotion {
                 dimensions,
                 matches!(path, Path::Translation | Path::Scale),
             )?;
+            let charge = |budget: &mut ReadBudget, accessor: &gltf::Accessor, part: &str| {
+                budget
+                    .take(accessor.count().saturating_mul(accessor.size()), || {
+                        format!("{what} {part}")
+                    })
+                    .map_err(AnimationError::Invalid)
+            };
             let reader = channel.reader(buffer);
-            let times: Vec<f32> = reader
-                .read_inputs()
-                .ok_or_else(|| AnimationError::Invalid(format!("{what}: unreadable input")))?
-                .collect();
+            let times = match inputs.get(&input.index()) {
+                Some(times) => times.clone(),
+                None => {
+                    charge(&mut budget, &input, "input")?;
+                    let times: std::sync::Arc<[f32]> = reader
+                        .read_inputs()
+                        .ok_or_else(|| {
+                            AnimationError::Invalid(format!("{what}: unreadable input"))
+                        })?
+                        .collect();
+                    inputs.insert(input.index(), times.clone());
+                    times
+                }
+            };
             if times.is_empty()
                 || times.iter().any(|t| !t.is_finite())
                 || times.windows(2).any(|w| w[1] < w[0])
@@ -270,6 +291,7 @@ impl GltfMotion {
                     times.len()
                 )));
             }
+            charge(&mut budget, &output, "output")?;
             let values: Vec<f32> = match reader.read_outputs() {
                 Some(gltf::animation::util::ReadOutputs::Translations(v))
                 | Some(gltf::animation::util::ReadOutputs::Scales(v)) => v.flatten().collect(),
@@ -320,6 +342,11 @@ impl GltfMotion {
                 Some(accessor) => {
                     let what = format!("skin {} inverseBindMatrices", skin.index());
                     typed(&accessor, &what, Dimensions::Mat4, true)?;
+                    budget
+                        .take(accessor.count().saturating_mul(accessor.size()), || {
+                            what.clone()
+                        })
+                        .map_err(AnimationError::Invalid)?;
                     let matrices: Vec<Mat4> = skin
                         .reader(buffer)
                         .read_inverse_bind_matrices()

@@ -108,7 +108,9 @@ impl Animation {
             }
             Motion::Gltf(name) => {
                 let motion = gltf::GltfMotion::new(scene, name.as_deref())?;
-                let mut mesh = scene.flatten();
+                let mut mesh = scene
+                    .flatten()
+                    .map_err(|e| AnimationError::Invalid(e.to_string()))?;
                 if mesh.triangles.is_empty() {
                     return Err(AnimationError::NoGeometry);
                 }

@@ -251,11 +251,20 @@ pub struct WriteNotes {
 pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
     let format = Format::from_path(path)?;
     let io_error = |e| MeshError::io(path, e);
+    let too_large = |e: crate::mesh::TooManyToFlatten| {
+        MeshError::invalid(
+            path,
+            format!("cannot flatten the scene for a one-level format: {e}"),
+        )
+    };
     let mut notes = WriteNotes::default();
     match format {
-        Format::Obj => obj::write(scene, path).map_err(io_error)?,
-        Format::Ply => ply::write(&scene.flatten(), path).map_err(io_error)?,
-        Format::Stl => stl::write(&scene.flatten(), path).map_err(io_error)?,
+        Format::Obj => {
+            scene.check_flattenable().map_err(too_large)?;
+            obj::write(scene, path).map_err(io_error)?
+        }
+        Format::Ply => ply::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
+        Format::Stl => stl::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
         Format::Gltf | Format::Glb => {
             notes = gltf::write(scene, path, format == Format::Glb).map_err(io_error)?;
         }

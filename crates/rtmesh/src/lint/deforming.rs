@@ -4,6 +4,17 @@
 use super::{Finding, Severity};
 use crate::mesh::Scene;
 
+/// Why [`lint_deforming`] could not compare the poses.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum DeformingError {
+    /// A pose's topology is not the rest pose's.
+    #[error(transparent)]
+    Mismatch(#[from] PoseMismatch),
+    /// A pose holds too many instanced triangles to flatten into one geometry.
+    #[error(transparent)]
+    TooLarge(#[from] crate::mesh::TooManyToFlatten),
+}
+
 /// A pose given to [`lint_deforming`] whose topology is not the rest pose's.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 #[error("pose {pose} does not have the rest pose's topology ({triangles} triangles, {vertices} vertices)")]
@@ -21,14 +32,14 @@ pub struct PoseMismatch {
 /// rest pose, refits it to each pose, and compares its SAH cost with a BVH rebuilt on
 /// that pose. Scenes are flattened to one geometry. Returns the finding, or an error
 /// naming the pose whose topology differs.
-pub fn lint_deforming(rest: &Scene, poses: &[Scene]) -> Result<Finding, PoseMismatch> {
+pub fn lint_deforming(rest: &Scene, poses: &[Scene]) -> Result<Finding, DeformingError> {
     use crate::bvh::BuildSettings;
     use crate::trace::SceneAccel;
-    let rest = Scene::from_mesh(rest.flatten());
+    let rest = Scene::from_mesh(rest.flatten()?);
     let mut accel = SceneAccel::build(&rest, &BuildSettings::default());
     let mut degradations = Vec::with_capacity(poses.len());
     for (k, pose) in poses.iter().enumerate() {
-        let pose = Scene::from_mesh(pose.flatten());
+        let pose = Scene::from_mesh(pose.flatten()?);
         if pose.meshes[0].triangles != rest.meshes[0].triangles
             || pose.meshes[0].positions.len() != rest.meshes[0].positions.len()
         {
@@ -36,7 +47,8 @@ pub fn lint_deforming(rest: &Scene, poses: &[Scene]) -> Result<Finding, PoseMism
                 pose: k + 1,
                 triangles: rest.meshes[0].triangle_count(),
                 vertices: rest.meshes[0].positions.len(),
-            });
+            }
+            .into());
         }
         accel.refit(&pose);
         let refit = accel.stats().sah_cost;

@@ -28,7 +28,7 @@
 mod deforming;
 mod probe;
 
-pub use deforming::{lint_deforming, PoseMismatch};
+pub use deforming::{lint_deforming, DeformingError, PoseMismatch};
 pub use probe::{alpha_layers, STACK_ANGLE, STACK_LAYERS, STACK_TOLERANCE};
 
 use probe::{alpha_layers_of, deepest_stack, lint_alpha_layers, lint_stacks, probe_crossings};

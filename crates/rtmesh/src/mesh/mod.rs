@@ -407,6 +407,23 @@ impl Instance {
     }
 }
 
+/// The most triangles [`Scene::flatten`] makes (about 1.4 GB of triangles and their
+/// per-triangle data before positions): 77 times the full dragon. Tracing and
+/// rendering keep instances and have no such limit.
+pub const MAX_FLATTENED_TRIANGLES: usize = 1 << 26;
+
+/// A scene whose instances hold more triangles than [`MAX_FLATTENED_TRIANGLES`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "its {instances} instances hold {triangles} triangles, over the {MAX_FLATTENED_TRIANGLES} rtmesh flattens into one mesh (glTF output keeps instances, as do trace and render with triangle leaves)"
+)]
+pub struct TooManyToFlatten {
+    /// Instances in the scene.
+    pub instances: usize,
+    /// Triangles they hold together.
+    pub triangles: usize,
+}
+
 /// Geometries and their placements: the input of a two-level (TLAS/BLAS) structure.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Scene {
@@ -499,13 +516,29 @@ impl Scene {
     }
 
     /// One mesh holding every instance's triangles in world space, in instance order.
-    /// The i-th triangle of the result is the i-th triangle in instance order.
-    pub fn flatten(&self) -> TriMesh {
-        self.concatenate(
+    /// The i-th triangle of the result is the i-th triangle in instance order. Refused
+    /// past [`MAX_FLATTENED_TRIANGLES`]: a small file can place one large mesh
+    /// thousands of times.
+    pub fn flatten(&self) -> Result<TriMesh, TooManyToFlatten> {
+        self.check_flattenable()?;
+        Ok(self.concatenate(
             self.instances
                 .iter()
                 .map(|i| (&self.meshes[i.mesh], i.transform)),
-        )
+        ))
+    }
+
+    /// Whether [`Scene::flatten`] stays within [`MAX_FLATTENED_TRIANGLES`] (writers of
+    /// one-level formats ask before writing).
+    pub fn check_flattenable(&self) -> Result<(), TooManyToFlatten> {
+        let triangles = self.instanced_triangle_count();
+        if triangles > MAX_FLATTENED_TRIANGLES {
+            return Err(TooManyToFlatten {
+                instances: self.instances.len(),
+                triangles,
+            });
+        }
+        Ok(())
     }
 
     /// One mesh holding every stored geometry once, untransformed, in mesh order: the
@@ -550,6 +583,27 @@ impl Scene {
 mod tests {
     use super::*;
 
+    /// 8,192 placements of an 8,192-triangle mesh flatten to exactly the limit; one more
+    /// is refused, before anything is allocated.
+    #[test]
+    fn flatten_refuses_past_the_limit() {
+        let side = 1usize << 13;
+        let positions = (0..side + 2).map(|i| Vec3::new(i as f32, (i % 2) as f32, 0.0));
+        let triangles = (0..side as u32).map(|i| [i, i + 1, i + 2]).collect();
+        let mut scene = Scene::from_mesh(TriMesh::new(positions.collect(), triangles));
+        scene.instances = vec![Instance::new(0, Affine3A::IDENTITY); side];
+        assert_eq!(scene.instanced_triangle_count(), MAX_FLATTENED_TRIANGLES);
+        assert_eq!(scene.check_flattenable(), Ok(()));
+        scene.instances.push(Instance::new(0, Affine3A::IDENTITY));
+        assert_eq!(
+            scene.flatten().err(),
+            Some(TooManyToFlatten {
+                instances: side + 1,
+                triangles: MAX_FLATTENED_TRIANGLES + side,
+            })
+        );
+    }
+
     #[test]
     fn flatten_applies_transforms_in_instance_order() {
         let tri = TriMesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
@@ -557,7 +611,7 @@ mod tests {
         scene
             .instances
             .push(Instance::new(0, Affine3A::from_translation(Vec3::Z * 2.0)));
-        let flat = scene.flatten();
+        let flat = scene.flatten().unwrap();
         assert_eq!(flat.triangles, vec![[0, 1, 2], [3, 4, 5]]);
         assert_eq!(flat.positions[3], Vec3::new(0.0, 0.0, 2.0));
         assert_eq!(scene.instanced_triangle_count(), 2);

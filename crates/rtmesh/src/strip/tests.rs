@@ -345,7 +345,7 @@ fn strips_written_as_gltf_and_ply_read_back_as_the_same_surface() {
         }
         assert_eq!(back.instances.len(), scene.instances.len());
     }
-    let flat = crate::mesh::weld_exact(&scene.flatten()).mesh;
+    let flat = crate::mesh::weld_exact(&scene.flatten().unwrap()).mesh;
     let flat_strips = stripify(&flat, &StripSettings::default());
     let path = dir.join("room.ply");
     crate::io::write_ply_strips(&flat, &flat_strips.to_standard(), &path).unwrap();

@@ -2,7 +2,7 @@
 
 use crate::args::{file_name, load, parse_size, Intersector, PacketShape};
 use crate::output::json_line;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use rtmesh::trace::intersect::IntersectorKind;
 use rtmesh::trace::measure::with_threads;
 use rtmesh_lab::tables::intersect::intersect_rows;
@@ -68,7 +68,9 @@ pub fn run(args: Args) -> Result<()> {
                 args.packet.side(),
                 &kinds,
                 args.runs,
-            ) {
+            )
+            .with_context(|| format!("{mesh}: cannot flatten the scene"))?
+            {
                 if args.json {
                     println!("{}", json_line(&row));
                 } else {

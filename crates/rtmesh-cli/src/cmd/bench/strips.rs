@@ -2,7 +2,7 @@
 
 use crate::args::{file_name, load, parse_size, ray_kinds, Rays};
 use crate::output::{json_line, steps_bar};
-use anyhow::Result;
+use anyhow::{Context, Result};
 use rtmesh::trace::measure::with_threads;
 use rtmesh::trace::strip::{Inside, MAX_TRACED_LENGTH};
 use rtmesh_lab::tables::strips::{strip_rows, StripTable};
@@ -100,7 +100,8 @@ pub fn run(args: Args) -> Result<()> {
         for mesh in &args.meshes {
             let scene = load(mesh)?;
             let bar = steps_bar(0);
-            let rows = strip_rows(file_name(mesh), &scene, &table, &bar);
+            let rows = strip_rows(file_name(mesh), &scene, &table, &bar)
+                .with_context(|| format!("{mesh}: cannot flatten the scene"))?;
             bar.0.finish_and_clear();
             for row in rows {
                 if args.json {

@@ -53,6 +53,7 @@ pub(super) fn read<R: BufRead>(
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(&bytes).map_err(|e| MeshError::invalid(path, e.to_string()))?;
     let buffers = read_buffers(path, &document, blob, root)?;
+    let mut budget = ReadBudget::new(buffers.iter().map(|b| b.0.len()).sum());
 
     let mut scene = Scene {
         materials: document
@@ -84,7 +85,7 @@ pub(super) fn read<R: BufRead>(
                 format!(
                     "mesh {} ('{}') primitive {p}: {what}",
                     mesh.index(),
-                    out.name
+                    mesh.name().unwrap_or_default()
                 )
             };
             if !matches!(
@@ -148,6 +149,14 @@ pub(super) fn read<R: BufRead>(
                 _ => {
                     let base = out.positions.len() as u32;
                     let count = position_accessor.count();
+                    let vertex_bytes: usize = std::iter::once(position_accessor.size())
+                        .chain(streams.iter().map(|(_, a)| a.size()))
+                        .sum();
+                    budget
+                        .take(count.saturating_mul(vertex_bytes), || {
+                            context("its vertices")
+                        })
+                        .map_err(|e| MeshError::invalid(path, e))?;
                     let positions = data
                         .read_positions()
                         .ok_or_else(|| MeshError::invalid(path, context("unreadable POSITION")))?;
@@ -171,6 +180,15 @@ pub(super) fn read<R: BufRead>(
                     base
                 }
             };
+            // A primitive without indices makes one u32 corner per vertex.
+            let corner_bytes = primitive
+                .indices()
+                .map_or(4 * position_accessor.count(), |i| {
+                    i.count().saturating_mul(i.size())
+                });
+            budget
+                .take(corner_bytes, || context("its corners"))
+                .map_err(|e| MeshError::invalid(path, e))?;
             let corners: Vec<u32> = match data.read_indices() {
                 Some(indices) => indices.into_u32().collect(),
                 None => (0..position_accessor.count() as u32).collect(),
@@ -455,6 +473,51 @@ fn assemble(mode: Mode, corners: &[u32]) -> (Vec<[u32; 3]>, usize) {
 
 /// Checks that `accessor` is dense, has a view inside its buffer, a legal stride and
 /// alignment, and elements that fit in the view, so that reading it cannot panic.
+/// How many bytes of accessor data a glTF file may have read out of it: twice the
+/// bytes of its buffers, plus [`READ_BUDGET_SLACK`]. A file that reads each accessor
+/// once stays within its buffers; one that names the same accessor from thousands of
+/// primitives or animation channels (a few kilobytes of JSON each) would make a small
+/// file fill any memory, and is refused instead. Each byte read becomes at most 11
+/// bytes in memory (a u8 index: a u32 corner and its share of the triangle's material,
+/// flag and group).
+pub(crate) struct ReadBudget {
+    limit: usize,
+    left: usize,
+}
+
+/// What every glTF file may read beyond twice its buffers: 16 MiB.
+pub(crate) const READ_BUDGET_SLACK: usize = 16 << 20;
+
+impl ReadBudget {
+    /// The budget of a file whose buffers hold `buffer_bytes`.
+    pub(crate) fn new(buffer_bytes: usize) -> Self {
+        let limit = buffer_bytes
+            .saturating_mul(2)
+            .saturating_add(READ_BUDGET_SLACK);
+        Self { limit, left: limit }
+    }
+
+    /// Take `bytes` for reading `what`, or say why not.
+    pub(crate) fn take(
+        &mut self,
+        bytes: usize,
+        what: impl FnOnce() -> String,
+    ) -> Result<(), String> {
+        match self.left.checked_sub(bytes) {
+            Some(left) => {
+                self.left = left;
+                Ok(())
+            }
+            None => Err(format!(
+                "{}: {bytes} more bytes of accessor data would pass the {} this file may read \
+                 (twice its buffers, plus 16 MiB): the same accessors are used over and over",
+                what(),
+                self.limit
+            )),
+        }
+    }
+}
+
 pub(crate) fn check_accessor<B: std::ops::Deref<Target = [u8]>>(
     accessor: &gltf::Accessor,
     buffers: &[B],
