@@ -81,6 +81,7 @@ expect amp-instances.gltf "cannot flatten" trace --leaf strip --size 64x64 --run
 expect amp-instances.gltf "cannot flatten" convert "$work/instances.obj"
 expect amp-instances.gltf "cannot flatten" convert "$work/instances.ply"
 expect amp-channels.gltf ok info
+expect amp-obj-mtllib-respelled.obj "material libraries hold over" info
 expect amp-channels.gltf "over and over" dynamic --motion gltf --frames 2 --size 16x16 --runs 1
 expect amp-channels.gltf "over and over" animate --motion gltf --frames 2 -o "$work/frames"
 files=$(ls *.obj *.ply *.gltf *.glb *.stl | wc -l)

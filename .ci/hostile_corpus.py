@@ -145,3 +145,8 @@ write("amp-channels.gltf", scene_doc(
     [{"primitives": [{"attributes": {"POSITION": 0}}]}], [{"mesh": 0}],
     animations=[{"samplers": [{"input": 1, "output": 2}],
                  "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}] * 4000}]))
+# One 2 MB material library (100,000 materials) named 2,000 times, and by 40 spellings
+# of its path (92 MB: past the 16 MiB that an OBJ's libraries may hold together).
+write("library.mtl", "".join(f"newmtl m{k}\nKd 1 0 0\n" for k in range(100_000)))
+write("ok-obj-mtllib-repeated.obj", "mtllib library.mtl\n" * 2000 + "usemtl m5\n" + triangle)
+write("amp-obj-mtllib-respelled.obj", "".join(f"mtllib {'./' * k}library.mtl\n" for k in range(40)) + triangle)

@@ -317,3 +317,40 @@ fn animation_channels_share_key_times_and_are_refused_past_the_read_budget() {
     );
     std::fs::remove_dir_all(root).ok();
 }
+
+/// An OBJ reads each material library once however often `mtllib` names it, and all
+/// its libraries together within MAX_MATERIAL_LIBRARY_BYTES: 2,000 `mtllib` lines of
+/// one 2 MB library give its 100,000 materials once; ten spellings of its path are
+/// refused, naming the OBJ.
+#[test]
+fn material_libraries_are_read_once_and_within_a_budget() {
+    let (root, asset) = sandbox("amp-mtllib");
+    let library: String = (0..100_000)
+        .map(|k| format!("newmtl m{k}\nKd 1 0 0\n"))
+        .collect();
+    std::fs::write(asset.join("library.mtl"), &library).unwrap();
+    let triangle = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m5\nf 1 2 3\n";
+    let repeated = asset.join("repeated.obj");
+    std::fs::write(&repeated, "mtllib library.mtl\n".repeat(2000) + triangle).unwrap();
+    let scene = rtmesh::io::read(&repeated).unwrap();
+    // The library's materials once, and the default for faces without one.
+    assert!(
+        scene.materials.len() <= 100_001,
+        "{}",
+        scene.materials.len()
+    );
+    let used = scene.meshes[0].material_ids[0] as usize;
+    assert_eq!(scene.materials[used].name, "m5");
+    assert!(library.len() as u64 * 10 > rtmesh::io::MAX_MATERIAL_LIBRARY_BYTES);
+    let respelled = asset.join("respelled.obj");
+    let lines: String = (0..10)
+        .map(|k| format!("mtllib {}library.mtl\n", "./".repeat(k)))
+        .collect();
+    std::fs::write(&respelled, lines + triangle).unwrap();
+    let message = error_reading(&respelled);
+    assert!(
+        message.contains("respelled.obj") && message.contains("material libraries hold over"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(root).ok();
+}

@@ -107,10 +107,13 @@ impl Animation {
                 Ok((mesh.clone(), Self::procedural(mesh, *p)))
             }
             Motion::Gltf(name) => {
+                // Checked first: the motion keeps every instance's rest data too.
+                let too_large = |e: crate::mesh::TooManyToFlatten| {
+                    AnimationError::Invalid(format!("cannot flatten the scene: {e}"))
+                };
+                scene.check_flattenable().map_err(too_large)?;
                 let motion = gltf::GltfMotion::new(scene, name.as_deref())?;
-                let mut mesh = scene
-                    .flatten()
-                    .map_err(|e| AnimationError::Invalid(e.to_string()))?;
+                let mut mesh = scene.flatten().map_err(too_large)?;
                 if mesh.triangles.is_empty() {
                     return Err(AnimationError::NoGeometry);
                 }

@@ -17,6 +17,7 @@ mod reference;
 mod stl;
 
 pub use gltf::GltfDocument;
+pub use obj::MAX_MATERIAL_LIBRARY_BYTES;
 pub use reference::MAX_REFERENCED_BYTES;
 
 use crate::mesh::{Scene, TriMesh};

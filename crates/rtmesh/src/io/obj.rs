@@ -22,6 +22,11 @@ use std::collections::HashMap;
 use std::io::{BufRead, Write};
 use std::path::Path;
 
+/// The most bytes of material libraries one OBJ may read, all its `mtllib` files
+/// together: 16 MiB. Real libraries take kilobytes; tobj holds about 15 bytes per byte
+/// of the shortest `newmtl` records.
+pub const MAX_MATERIAL_LIBRARY_BYTES: u64 = 16 << 20;
+
 pub(super) fn read<R: BufRead>(
     path: &Path,
     mut reader: CountingReader<'_, R>,
@@ -41,24 +46,44 @@ pub(super) fn read<R: BufRead>(
     // A material library is read by the rule for references (`reference.rs`); one that
     // breaks it is an error, a missing one is not (many files ship without it): then
     // the `usemtl` names stand as materials of their own, so that faces keep them.
+    // Each library is read once however often `mtllib` names it, the stand-in names at
+    // most once, and the libraries together within MAX_MATERIAL_LIBRARY_BYTES: a short
+    // file that names one large library thousands of times would otherwise fill memory.
     let refused = std::cell::RefCell::new(None);
     let named_only: String = arguments(&text, b"usemtl")
         .map(|name| format!("newmtl {name}\n"))
         .collect();
-    let (models, materials) =
-        tobj::load_obj_buf(
-            &mut lines,
-            &options,
-            |mtl| match super::reference::read_referenced(path, &mtl.to_string_lossy(), root) {
-                Ok(Some(bytes)) => tobj::load_mtl_buf(&mut &bytes[..]),
-                Ok(None) => tobj::load_mtl_buf(&mut named_only.as_bytes()),
-                Err(error) => {
-                    refused.borrow_mut().get_or_insert(error);
-                    Err(tobj::LoadError::OpenFileFailed)
+    let loaded = std::cell::RefCell::new(std::collections::HashSet::new());
+    let (library_bytes, stand_ins_loaded) =
+        (std::cell::Cell::new(0u64), std::cell::Cell::new(false));
+    let (models, materials) = tobj::load_obj_buf(&mut lines, &options, |mtl| {
+        let name = mtl.to_string_lossy();
+        if !loaded.borrow_mut().insert(name.to_string()) {
+            return Ok(Default::default());
+        }
+        match super::reference::read_referenced(path, &name, root) {
+            Ok(Some(bytes)) => {
+                library_bytes.set(library_bytes.get() + bytes.len() as u64);
+                if library_bytes.get() > MAX_MATERIAL_LIBRARY_BYTES {
+                    refused.borrow_mut().get_or_insert(MeshError::invalid(
+                        path,
+                        format!(
+                            "its material libraries hold over {MAX_MATERIAL_LIBRARY_BYTES} bytes together (at '{name}')"
+                        ),
+                    ));
+                    return Err(tobj::LoadError::OpenFileFailed);
                 }
-            },
-        )
-        .map_err(|e| MeshError::at_line(path, lines.line(), describe(e)))?;
+                tobj::load_mtl_buf(&mut &bytes[..])
+            }
+            Ok(None) if stand_ins_loaded.replace(true) => Ok(Default::default()),
+            Ok(None) => tobj::load_mtl_buf(&mut named_only.as_bytes()),
+            Err(error) => {
+                refused.borrow_mut().get_or_insert(error);
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        }
+    })
+    .map_err(|e| MeshError::at_line(path, lines.line(), describe(e)))?;
     if let Some(error) = refused.into_inner() {
         return Err(error);
     }
