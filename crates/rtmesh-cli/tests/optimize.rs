@@ -13,6 +13,18 @@ fn rtmesh(args: &[&str]) -> Output {
         .expect("run rtmesh")
 }
 
+/// `rtmesh optimize INPUT -o OUTPUT EXTRA...`.
+fn optimize(input: &Path, output: &Path, extra: &[&str]) -> Output {
+    let mut args = vec![
+        "optimize",
+        input.to_str().unwrap(),
+        "-o",
+        output.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    rtmesh(&args)
+}
+
 fn temp_dir(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("rtmesh-optimize-{name}-{}", std::process::id()));
     std::fs::remove_dir_all(&dir).ok();
@@ -45,17 +57,11 @@ fn a_batch_reports_bad_files_and_finishes_the_good_ones() {
     )
     .unwrap();
     let output = dir.join("out");
-    let out = rtmesh(&[
-        "optimize",
-        input.to_str().unwrap(),
-        "-o",
-        output.to_str().unwrap(),
-        "--json",
-        "--size",
-        "32x32",
-        "--runs",
-        "1",
-    ]);
+    let out = optimize(
+        &input,
+        &output,
+        &["--json", "--size", "32x32", "--runs", "1"],
+    );
     assert_eq!(out.status.code(), Some(1), "a failed file fails the run");
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains("3 of 5 files failed"), "{stderr}");
@@ -145,14 +151,7 @@ fn an_output_folder_it_cannot_write_is_a_clear_error() {
         locked.clone()
     };
     let output = target.join("quads.obj");
-    let out = rtmesh(&[
-        "optimize",
-        mesh.to_str().unwrap(),
-        "-o",
-        output.to_str().unwrap(),
-        "--size",
-        "0x0",
-    ]);
+    let out = optimize(&mesh, &output, &["--size", "0x0"]);
     assert_eq!(out.status.code(), Some(1));
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(stderr.contains(target.to_str().unwrap()), "{stderr}");
@@ -296,4 +295,24 @@ fn the_report_opens_in_a_headless_browser_and_is_self_contained() {
 /// The policy the report declares, read from a report's own head.
 fn rtmesh_policy() -> &'static str {
     "default-src 'none'; img-src data:; style-src 'unsafe-inline'"
+}
+
+/// A folder that holds one mesh is still a folder: OUT mirrors it (`OUT/sub/one.obj`),
+/// as it would with many, rather than naming the one output file.
+#[test]
+fn a_folder_of_one_file_is_mirrored_into_the_output_folder() {
+    let dir = temp_dir("one-file-folder");
+    let input = dir.join("in");
+    std::fs::create_dir_all(input.join("sub")).unwrap();
+    std::fs::write(input.join("sub/one.obj"), QUADS).unwrap();
+    let output = dir.join("out");
+    let out = optimize(&input, &output, &["--size", "16x16", "--runs", "1"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let written = std::fs::read_to_string(output.join("sub/one.obj")).unwrap();
+    assert_eq!(written.lines().filter(|l| l.starts_with("f ")).count(), 4);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -197,6 +197,8 @@ pub fn run(args: Args) -> Result<()> {
 fn plan(args: &Args) -> Result<Vec<Job>> {
     // (input, path relative to OUT) for every file.
     let mut files: Vec<(String, PathBuf, u64)> = Vec::new();
+    // A folder's files go into a folder of the same shape, however many it holds.
+    let mut from_folder = false;
     for input in &args.inputs {
         if let Some(name) = input.strip_prefix("builtin:") {
             files.push((input.clone(), PathBuf::from(format!("{name}.glb")), 0));
@@ -204,6 +206,7 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
         }
         let path = Path::new(input);
         if path.is_dir() {
+            from_folder = true;
             let mut found = Vec::new();
             walk(path, &mut found).with_context(|| format!("listing {}", path.display()))?;
             found.sort();
@@ -225,6 +228,7 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
         }
     }
     let single = files.len() == 1
+        && !from_folder
         && !args
             .output
             .as_ref()
