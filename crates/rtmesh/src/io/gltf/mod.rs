@@ -46,10 +46,11 @@ pub(super) fn read<R: BufRead>(
         }
     }
     // The gltf crate's validator indexes the POSITION accessor before checking that it
-    // exists (a panic found by fuzzing), so check that reference first.
+    // exists, and never checks animation channels' targets, which its accessors then
+    // unwrap (panics found by fuzzing), so check those references first.
     let unvalidated = gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|e| MeshError::invalid(path, e.to_string()))?;
-    check_position_references(unvalidated.as_json()).map_err(|e| MeshError::invalid(path, e))?;
+    check_unvalidated_references(unvalidated.as_json()).map_err(|e| MeshError::invalid(path, e))?;
     let gltf::Gltf { document, blob } =
         gltf::Gltf::from_slice(&bytes).map_err(|e| MeshError::invalid(path, e.to_string()))?;
     let buffers = read_buffers(path, &document, blob, root)?;
@@ -373,8 +374,12 @@ fn read_buffers(
     Ok(buffers)
 }
 
-fn check_position_references(root: &gltf::json::Root) -> Result<(), String> {
-    let position = gltf::json::validation::Checked::Valid(gltf::Semantic::Positions);
+/// The references that the gltf crate's validator reads before checking them, or never
+/// checks: each primitive's POSITION accessor, and each animation channel's target node
+/// and path.
+fn check_unvalidated_references(root: &gltf::json::Root) -> Result<(), String> {
+    use gltf::json::validation::Checked;
+    let position = Checked::Valid(gltf::Semantic::Positions);
     for (m, mesh) in root.meshes.iter().enumerate() {
         for (p, primitive) in mesh.primitives.iter().enumerate() {
             if let Some(index) = primitive.attributes.get(&position) {
@@ -385,6 +390,23 @@ fn check_position_references(root: &gltf::json::Root) -> Result<(), String> {
                         root.accessors.len()
                     ));
                 }
+            }
+        }
+    }
+    for (a, animation) in root.animations.iter().enumerate() {
+        for (c, channel) in animation.channels.iter().enumerate() {
+            let target = &channel.target;
+            if target.node.value() >= root.nodes.len() {
+                return Err(format!(
+                    "animation {a} channel {c}: target names node {} but there are {} nodes",
+                    target.node.value(),
+                    root.nodes.len()
+                ));
+            }
+            if matches!(target.path, Checked::Invalid) {
+                return Err(format!(
+                    "animation {a} channel {c}: target path is not translation, rotation, scale or weights"
+                ));
             }
         }
     }
