@@ -1,9 +1,10 @@
 //! What goes out: JSON reports stamped with the version and schema, and progress bars
 //! on standard error.
 
-use anyhow::Result;
+use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
+use std::path::Path;
 
 /// The version of the JSON reports' layout: raised when a key changes meaning or goes.
 pub const SCHEMA: u32 = 1;
@@ -65,8 +66,57 @@ impl rtmesh::progress::Progress for Bar {
     }
 }
 
+/// Refuse an output that would replace a file the input was read from: the input file
+/// itself, or a buffer file that a .gltf input names (a .gltf output writes its buffer
+/// beside it, with the extension `.bin`). Like `cp a a`, since a mistake in the output
+/// would then have lost the original. Built-in scenes have no file.
+pub fn refuse_overwriting_input(input: &str, scene: &rtmesh::Scene, output: &Path) -> Result<()> {
+    if input.starts_with("builtin:") {
+        return Ok(());
+    }
+    let input = Path::new(input);
+    let mut read = vec![input.to_owned()];
+    if let Some(rtmesh::io::Document::Gltf(document)) = scene.document.as_deref() {
+        let folder = input.parent().unwrap_or(Path::new(""));
+        let uris = document
+            .root()
+            .buffers
+            .iter()
+            .filter_map(|b| b.uri.as_deref());
+        read.extend(
+            uris.filter(|uri| !uri.contains(':'))
+                .map(|uri| folder.join(uri)),
+        );
+    }
+    let mut written = vec![output.to_owned()];
+    if output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf"))
+    {
+        written.push(output.with_extension("bin"));
+    }
+    let canonical = |path: &Path| std::fs::canonicalize(path).ok();
+    for path in &written {
+        let Some(target) = canonical(path) else {
+            continue; // not there yet: nothing to replace
+        };
+        if let Some(source) = read.iter().find(|r| canonical(r) == Some(target.clone())) {
+            let what = if source == input {
+                "the input file".to_owned()
+            } else {
+                format!("the buffer {} that the input reads", source.display())
+            };
+            bail!(
+                "{}: this is {what}, which the output would replace: write the output to another name or folder",
+                path.display()
+            );
+        }
+    }
+    Ok(())
+}
+
 /// Write `scene` to `path`, and say on standard error what the format could not hold.
-pub fn write_mesh(scene: &rtmesh::Scene, path: &std::path::Path) -> Result<()> {
+pub fn write_mesh(scene: &rtmesh::Scene, path: &Path) -> Result<()> {
     let notes = rtmesh::io::write(scene, path)?;
     if notes.inactive_collapsed > 0 {
         eprintln!(

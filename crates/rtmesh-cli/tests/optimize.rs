@@ -316,3 +316,86 @@ fn a_folder_of_one_file_is_mirrored_into_the_output_folder() {
     assert_eq!(written.lines().filter(|l| l.starts_with("f ")).count(), 4);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn an_output_never_replaces_its_input() {
+    let dir = temp_dir("in-place");
+    let input = dir.join("quads.obj");
+    std::fs::write(&input, QUADS).unwrap();
+    let out = optimize(&input, &input, &["--size", "16x16", "--runs", "1"]);
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("quads.obj: this is the input file"),
+        "{stderr}"
+    );
+    assert_eq!(std::fs::read_to_string(&input).unwrap(), QUADS);
+    // The same for the other writers, and for a .gltf's buffer file.
+    let gltf = dir.join("quads.gltf");
+    assert!(
+        rtmesh(&["convert", input.to_str().unwrap(), gltf.to_str().unwrap()])
+            .status
+            .success()
+    );
+    let buffer = std::fs::read(dir.join("quads.bin")).unwrap();
+    let renamed = dir.join("renamed.gltf");
+    let json = std::fs::read_to_string(&gltf).unwrap();
+    std::fs::write(&renamed, json.replace("quads.bin", "other.bin")).unwrap();
+    std::fs::write(dir.join("other.bin"), &buffer).unwrap();
+    let input_str = input.to_str().unwrap();
+    for args in [
+        vec!["convert", input_str, input_str],
+        vec!["pair", input_str, "-o", input_str],
+        vec!["repair", input_str, "-o", input_str],
+        vec!["strip", input_str, "-o", input_str],
+    ] {
+        let out = rtmesh(&args);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("this is the input file"));
+    }
+    let other = dir.join("other.gltf");
+    let out = rtmesh(&[
+        "convert",
+        renamed.to_str().unwrap(),
+        other.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(stderr.contains("other.bin: this is the buffer"), "{stderr}");
+    assert_eq!(std::fs::read_to_string(&input).unwrap(), QUADS);
+    assert_eq!(std::fs::read(dir.join("other.bin")).unwrap(), buffer);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn an_output_folder_inside_the_input_folder_is_not_read_as_input() {
+    let dir = temp_dir("nested-output");
+    std::fs::write(dir.join("quads.obj"), QUADS).unwrap();
+    let output = dir.join("out");
+    let reports = dir.join("reports");
+    for _ in 0..2 {
+        let out = optimize(
+            &dir,
+            &output,
+            &[
+                "--size",
+                "16x16",
+                "--runs",
+                "1",
+                "--report",
+                reports.to_str().unwrap(),
+                "--json",
+            ],
+        );
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        // One file each time: the first run's output and report are not inputs.
+        assert_eq!(lines(&out).len(), 1);
+    }
+    assert!(output.join("quads.obj").is_file());
+    assert!(!output.join("out").exists());
+    std::fs::remove_dir_all(&dir).ok();
+}

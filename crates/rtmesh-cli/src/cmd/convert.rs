@@ -1,7 +1,7 @@
 //! `rtmesh convert`: between formats, keeping triangle order.
 
 use crate::args::load;
-use crate::output::{emit, write_mesh};
+use crate::output::{emit, refuse_overwriting_input, write_mesh};
 use anyhow::{Context, Result};
 use serde::Serialize;
 use std::path::PathBuf;
@@ -40,6 +40,7 @@ pub struct Report {
 /// Read, weld if asked, write.
 pub fn run(args: Args) -> Result<()> {
     let mut scene = load(&args.input)?;
+    refuse_overwriting_input(&args.input, &scene, &args.output)?;
     let mut merged_vertices = 0;
     if let Some(tolerance) = args.weld {
         for mesh in &mut scene.meshes {

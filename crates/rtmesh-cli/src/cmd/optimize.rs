@@ -1,7 +1,7 @@
 //! `rtmesh optimize`: the main job, for one file or a whole library.
 
 use crate::args::{load, parse_size_or_zero, CameraArg};
-use crate::output::{json_line, steps_bar, write_mesh};
+use crate::output::{json_line, refuse_overwriting_input, steps_bar, write_mesh};
 use anyhow::{bail, Context, Result};
 use rayon::prelude::*;
 use rtmesh::optimize::html::{Header, Pictures};
@@ -199,6 +199,13 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
     let mut files: Vec<(String, PathBuf, u64)> = Vec::new();
     // A folder's files go into a folder of the same shape, however many it holds.
     let mut from_folder = false;
+    // OUT and the reports' folder may lie inside an input folder: what is in them are
+    // results, not inputs (else each run would also optimize the last run's output).
+    let results: Vec<PathBuf> = [&args.output, &args.report]
+        .into_iter()
+        .flatten()
+        .filter_map(|folder| std::fs::canonicalize(folder).ok())
+        .collect();
     for input in &args.inputs {
         if let Some(name) = input.strip_prefix("builtin:") {
             files.push((input.clone(), PathBuf::from(format!("{name}.glb")), 0));
@@ -208,7 +215,8 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
         if path.is_dir() {
             from_folder = true;
             let mut found = Vec::new();
-            walk(path, &mut found).with_context(|| format!("listing {}", path.display()))?;
+            walk(path, &results, &mut found)
+                .with_context(|| format!("listing {}", path.display()))?;
             found.sort();
             if found.is_empty() {
                 bail!(
@@ -274,14 +282,18 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
     Ok(jobs)
 }
 
-/// Every mesh file under `dir`, recursively (links not followed).
-fn walk(dir: &Path, found: &mut Vec<PathBuf>) -> std::io::Result<()> {
+/// Every mesh file under `dir`, recursively (links not followed), except in the
+/// folders `skip` (canonical paths).
+fn walk(dir: &Path, skip: &[PathBuf], found: &mut Vec<PathBuf>) -> std::io::Result<()> {
     for entry in std::fs::read_dir(dir)? {
         let entry = entry?;
         let kind = entry.file_type()?;
         let path = entry.path();
         if kind.is_dir() {
-            walk(&path, found)?;
+            if !skip.is_empty() && skip.contains(&std::fs::canonicalize(&path)?) {
+                continue;
+            }
+            walk(&path, skip, found)?;
         } else if kind.is_file()
             && path
                 .extension()
@@ -409,6 +421,9 @@ fn optimize_file(
     report: &mut FileReport,
 ) -> Result<()> {
     let scene = load(&job.input)?;
+    if let (Some(output), false) = (&job.output, settings.dry_run) {
+        refuse_overwriting_input(&job.input, &scene, output)?;
+    }
     let mut optimized = rtmesh::optimize::optimize_mapped(&scene, &settings.options, progress)
         .with_context(|| job.input.clone())?;
     if let Some(measure) = &settings.options.measure {

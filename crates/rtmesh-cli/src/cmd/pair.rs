@@ -2,7 +2,7 @@
 //! time.
 
 use crate::args::load;
-use crate::output::{emit, write_mesh};
+use crate::output::{emit, refuse_overwriting_input, write_mesh};
 use anyhow::Result;
 use rtmesh::pair::{PairMethod, PairReport, PairSettings};
 use serde::Serialize;
@@ -60,6 +60,9 @@ pub struct Report {
 /// Pair, write if asked, report.
 pub fn run(args: Args) -> Result<()> {
     let mut scene = load(&args.mesh)?;
+    if let Some(output) = &args.output {
+        refuse_overwriting_input(&args.mesh, &scene, output)?;
+    }
     let settings = PairSettings {
         method: args.method,
         prescan_threshold: (!args.no_prescan).then_some(0.85),

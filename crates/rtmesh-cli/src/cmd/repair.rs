@@ -1,7 +1,7 @@
 //! `rtmesh repair`: fix what lint finds, write the result, measure the gain.
 
 use crate::args::{load, parse_size_or_zero};
-use crate::output::{emit, steps_bar, write_mesh};
+use crate::output::{emit, refuse_overwriting_input, steps_bar, write_mesh};
 use anyhow::{Context, Result};
 use rtmesh::lint::LintSettings;
 use rtmesh::progress::Progress;
@@ -102,6 +102,9 @@ pub struct Report {
 /// Repair, write, measure.
 pub fn run(args: Args) -> Result<()> {
     let scene = load(&args.mesh)?;
+    if let Some(output) = &args.output {
+        refuse_overwriting_input(&args.mesh, &scene, output)?;
+    }
     let settings = RepairSettings {
         degenerate: if args.inactive {
             Degenerate::Inactive

@@ -2,7 +2,7 @@
 //! (meshoptimizer), with their figures and, with -o, the stripped mesh.
 
 use crate::args::load;
-use crate::output::emit;
+use crate::output::{emit, refuse_overwriting_input};
 use anyhow::{bail, Context, Result};
 use rtmesh::mesh::{names_a_vertex_twice, weld_exact};
 use rtmesh::strip::{meshopt, sah, StripReport, Strips};
@@ -107,6 +107,9 @@ pub fn strips_by(
 /// Strip, write, report.
 pub fn run(args: Args) -> Result<()> {
     let scene = load(&args.mesh)?;
+    if let Some(output) = &args.output {
+        refuse_overwriting_input(&args.mesh, &scene, output)?;
+    }
     let ext = args
         .output
         .as_ref()
