@@ -137,6 +137,11 @@ pub fn set_read_options(options: rtmesh::io::ReadOptions) {
         .expect("read options are set once");
 }
 
+/// How meshes are read in this run.
+pub fn read_options() -> &'static rtmesh::io::ReadOptions {
+    READ_OPTIONS.get_or_init(Default::default)
+}
+
 /// Read a mesh file (with a progress bar for large files) or make a built-in scene
 /// (`builtin:NAME`).
 pub fn load(mesh: &str) -> Result<Scene> {
@@ -159,8 +164,7 @@ pub fn load(mesh: &str) -> Result<Scene> {
         ProgressBar::hidden()
     };
     bar.set_message(mesh.to_owned());
-    let options = READ_OPTIONS.get_or_init(Default::default);
-    let scene = rtmesh::io::read_with(path, options, &mut |done, _| bar.set_position(done));
+    let scene = rtmesh::io::read_with(path, read_options(), &mut |done, _| bar.set_position(done));
     bar.finish_and_clear();
     Ok(scene?)
 }

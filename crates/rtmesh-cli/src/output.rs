@@ -3,6 +3,7 @@
 
 use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
+use rtmesh::io::SideFiles;
 use serde::Serialize;
 use std::path::Path;
 
@@ -115,8 +116,12 @@ pub fn refuse_overwriting_input(input: &str, scene: &rtmesh::Scene, output: &Pat
     Ok(())
 }
 
-/// Write `scene` to `path`, and say on standard error what the format could not hold.
-pub fn write_mesh(scene: &rtmesh::Scene, path: &Path) -> Result<()> {
+/// Write `scene`, read from `input`, to `path`; say on standard error what the format
+/// could not hold. The files the output refers to are copied beside it first
+/// ([`copy_side_files`]).
+pub fn write_mesh(input: &str, scene: &rtmesh::Scene, path: &Path) -> Result<SideFiles> {
+    // First, so that a side file in the way stops the write before anything is written.
+    let copies = copy_side_files(input, scene, path)?;
     let notes = rtmesh::io::write(scene, path)?;
     if notes.inactive_collapsed > 0 {
         eprintln!(
@@ -139,5 +144,33 @@ pub fn write_mesh(scene: &rtmesh::Scene, path: &Path) -> Result<()> {
             notes.weights_renormalized
         );
     }
-    Ok(())
+    Ok(copies)
+}
+
+/// Copy the files that `output`, written from `scene` read from `input`, refers to and
+/// does not hold (an OBJ's material libraries and textures, a glTF's image files) to
+/// the same relative paths beside it, and say on standard error what could not be.
+pub fn copy_side_files(input: &str, scene: &rtmesh::Scene, output: &Path) -> Result<SideFiles> {
+    if input.starts_with("builtin:") {
+        return Ok(SideFiles::default());
+    }
+    let copies =
+        rtmesh::io::copy_side_files(Path::new(input), scene, output, crate::args::read_options())?;
+    let output = output.display();
+    if !copies.missing.is_empty() {
+        eprintln!(
+            "note: {output} refers to {}, which {input} names but which is not there: not copied",
+            copies.missing.join(", ")
+        );
+    }
+    if !copies.outside.is_empty() {
+        eprintln!(
+            "note: {output} refers to {}, outside the folder of {input}: not copied, so copy them to the same place relative to the output",
+            copies.outside.join(", ")
+        );
+    }
+    for why in &copies.refused {
+        eprintln!("note: {output} keeps a reference that was not copied: {why}");
+    }
+    Ok(copies)
 }

@@ -109,6 +109,7 @@ fn info_convert_pair_lint_repair_keys() {
             "triangles",
             "vertices",
             "merged_vertices",
+            "side_files",
         ],
     );
     assert_keys(
@@ -275,6 +276,7 @@ fn trace_render_demo_keys() {
             "output",
             "report",
             "pairs_file",
+            "side_files",
             "ok",
             "error",
             "seconds",

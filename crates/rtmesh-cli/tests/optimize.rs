@@ -399,3 +399,40 @@ fn an_output_folder_inside_the_input_folder_is_not_read_as_input() {
     assert!(!output.join("out").exists());
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A mirrored OBJ keeps its material library and textures: they are copied beside it
+/// (before, `OUT/sub/a.obj` named an `a.mtl` that was not there).
+#[test]
+fn the_files_an_output_refers_to_are_copied_beside_it() {
+    let dir = temp_dir("side-files");
+    let input = dir.join("in");
+    std::fs::create_dir_all(input.join("sub/tex")).unwrap();
+    let obj = format!("mtllib a.mtl\nusemtl leaf\n{QUADS}");
+    std::fs::write(input.join("sub/a.obj"), obj).unwrap();
+    std::fs::write(input.join("sub/a.mtl"), "newmtl leaf\nmap_d tex/leaf.png\n").unwrap();
+    std::fs::write(input.join("sub/tex/leaf.png"), [7u8; 3]).unwrap();
+    let output = dir.join("out");
+    let out = optimize(
+        &input,
+        &output,
+        &["--size", "16x16", "--runs", "1", "--json"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let line = &lines(&out)[0];
+    let copied: Vec<PathBuf> = serde_json::from_value(line["side_files"].clone()).unwrap();
+    assert_eq!(
+        copied,
+        [output.join("sub/a.mtl"), output.join("sub/tex/leaf.png")]
+    );
+    assert_eq!(
+        std::fs::read(output.join("sub/tex/leaf.png")).unwrap(),
+        [7; 3]
+    );
+    let written = std::fs::read_to_string(output.join("sub/a.obj")).unwrap();
+    assert!(written.contains("mtllib a.mtl\n") && written.contains("usemtl leaf\n"));
+    std::fs::remove_dir_all(&dir).ok();
+}

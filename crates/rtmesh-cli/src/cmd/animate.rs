@@ -87,6 +87,10 @@ pub fn run(args: Args) -> Result<()> {
             &mut frame.meshes[0],
         );
         let path = args.output.join(format!("frame-{f:04}.{format}"));
+        if f == 0 {
+            // Every frame refers to the same material libraries and textures.
+            crate::output::copy_side_files(&args.mesh, &frame, &path)?;
+        }
         rtmesh::io::write(&frame, &path)?;
         files.push(path);
         bar.advance(1);

@@ -35,6 +35,8 @@ pub struct Report {
     vertices: usize,
     /// Vertices merged by `--weld`.
     merged_vertices: usize,
+    /// The files the output refers to (material libraries, textures), copied beside it.
+    side_files: Vec<PathBuf>,
 }
 
 /// Read, weld if asked, write.
@@ -49,13 +51,16 @@ pub fn run(args: Args) -> Result<()> {
             *mesh = result.mesh;
         }
     }
-    write_mesh(&scene, &args.output).with_context(|| format!("converting {}", args.input))?;
+    let side_files = write_mesh(&args.input, &scene, &args.output)
+        .with_context(|| format!("converting {}", args.input))?
+        .copied;
     let report = Report {
         input: args.input,
         output: args.output,
         triangles: scene.instanced_triangle_count(),
         vertices: scene.instanced_vertex_count(),
         merged_vertices,
+        side_files,
     };
     emit(&report, args.json, |r| {
         println!(
@@ -64,6 +69,12 @@ pub fn run(args: Args) -> Result<()> {
             r.triangles,
             r.vertices,
             r.merged_vertices
-        )
+        );
+        if !r.side_files.is_empty() {
+            println!(
+                "copied {} files it refers to beside it (material libraries, textures)",
+                r.side_files.len()
+            );
+        }
     })
 }

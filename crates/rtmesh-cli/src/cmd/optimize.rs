@@ -145,6 +145,8 @@ pub struct FileReport {
     /// The strip or cluster table beside the output (`--target strips|clusters`).
     #[serde(skip_serializing_if = "Option::is_none")]
     sequences_file: Option<PathBuf>,
+    /// The files the output refers to (material libraries, textures), copied beside it.
+    side_files: Vec<PathBuf>,
     ok: bool,
     error: Option<String>,
     /// Wall-clock seconds for this file, reading and writing included.
@@ -394,6 +396,7 @@ fn run_job(job: &Job, settings: &Settings, progress: &dyn Progress) -> FileRepor
         report: None,
         pairs_file: None,
         sequences_file: None,
+        side_files: Vec::new(),
         ok: false,
         error: None,
         seconds: 0.0,
@@ -433,7 +436,7 @@ fn optimize_file(
     if !settings.dry_run {
         if let Some(output) = &job.output {
             create_parent(output)?;
-            write_mesh(&optimized.scene, output)?;
+            report.side_files = write_mesh(&job.input, &optimized.scene, output)?.copied;
             report.output = Some(output.clone());
             if settings.options.target == Target::Pairs {
                 let mut name = output.clone().into_os_string();
@@ -738,6 +741,12 @@ fn print_one(file: &FileReport) {
         if let Some(path) = path {
             println!("{what} {}", path.display());
         }
+    }
+    if !file.side_files.is_empty() {
+        println!(
+            "copied {} files the output refers to beside it (material libraries, textures)",
+            file.side_files.len()
+        );
     }
 }
 

@@ -71,7 +71,7 @@ pub fn run(args: Args) -> Result<()> {
     };
     let pairing = rtmesh::pair::pair_scene(&mut scene, &settings);
     if let Some(output) = &args.output {
-        write_mesh(&scene, output)?;
+        write_mesh(&args.mesh, &scene, output)?;
     }
     let report = Report {
         mesh: args.mesh,

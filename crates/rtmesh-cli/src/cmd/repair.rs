@@ -132,7 +132,7 @@ pub fn run(args: Args) -> Result<()> {
     bar.advance(1);
     if let Some(output) = &args.output {
         bar.message(&format!("writing {}", output.display()));
-        write_mesh(&repaired, output)?;
+        write_mesh(&args.mesh, &repaired, output)?;
         bar.advance(1);
     }
     if let Some(path) = &args.map {

@@ -2,7 +2,7 @@
 //! (meshoptimizer), with their figures and, with -o, the stripped mesh.
 
 use crate::args::load;
-use crate::output::{emit, refuse_overwriting_input};
+use crate::output::{copy_side_files, emit, refuse_overwriting_input};
 use anyhow::{bail, Context, Result};
 use rtmesh::mesh::{names_a_vertex_twice, weld_exact};
 use rtmesh::strip::{meshopt, sah, StripReport, Strips};
@@ -136,6 +136,7 @@ pub fn run(args: Args) -> Result<()> {
         }
         let seconds = start.elapsed().as_secs_f64();
         let path = args.output.as_ref().expect("an output has an extension");
+        copy_side_files(&args.mesh, &scene, path)?;
         rtmesh::io::write_gltf_strips(&scene, &all, path)?;
         (all, native, seconds)
     } else {

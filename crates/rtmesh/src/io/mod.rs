@@ -14,11 +14,13 @@ pub(crate) mod gltf;
 mod obj;
 mod ply;
 mod reference;
+mod side_files;
 mod stl;
 
 pub use gltf::GltfDocument;
 pub use obj::MAX_MATERIAL_LIBRARY_BYTES;
 pub use reference::MAX_REFERENCED_BYTES;
+pub use side_files::{copy_side_files, SideFiles};
 
 use crate::mesh::{Scene, TriMesh};
 use std::io::{BufRead, Read};
@@ -203,7 +205,7 @@ fn read_counted<R: BufRead>(
 /// same format writes it back unchanged.
 #[derive(Clone, Debug)]
 pub enum Document {
-    /// OBJ: the `mtllib` references, as written (the files are not copied).
+    /// OBJ: the `mtllib` references, as written ([`copy_side_files`] copies the files).
     Obj {
         /// Each `mtllib` statement's argument, in file order.
         material_libraries: Vec<String>,

@@ -13,7 +13,8 @@
 //! distinct (position, texture coordinate, normal) triple of a geometry is one vertex,
 //! so seams stay. (A corner without `vt` in a file that has some takes tobj's fallback,
 //! the geometry's previous one.) The `mtllib` references are kept as written and
-//! written back (the files are not copied), with `usemtl` per run of material.
+//! written back, with `usemtl` per run of material; [`super::copy_side_files`] copies
+//! the libraries and their textures beside an output in another folder.
 
 use super::{CountingReader, MeshError};
 use crate::mesh::{Material, Scene, TriMesh, VertexAttribute};

@@ -26,7 +26,7 @@ pub(crate) fn asset_folder(asset: &Path) -> PathBuf {
 /// `path` made absolute (against the current directory) with `.` and `..` resolved
 /// lexically, touching no file; `None` where `..` would climb above the file system's
 /// root.
-fn lexical(path: &Path) -> Option<PathBuf> {
+pub(crate) fn lexical(path: &Path) -> Option<PathBuf> {
     let absolute = std::path::absolute(path).ok()?;
     let mut out = PathBuf::new();
     for component in absolute.components() {

@@ -1,0 +1,181 @@
+//! The files a written mesh refers to that the writer does not write: an OBJ's material
+//! libraries (`mtllib`) and the texture maps they name, a glTF's images stored as files.
+//! Writers keep those references as the input wrote them (relative paths), so an
+//! output in another folder would point at nothing and lose its materials' textures;
+//! [`copy_side_files`] copies each one to the same relative place beside the output.
+//!
+//! Every file is read by the rule for references (`reference.rs`: inside the asset's
+//! folder or the asset root, regular files, size-limited), so a crafted reference
+//! cannot make a copy of a file from elsewhere. A reference that resolves outside the
+//! input's own folder (allowed by an asset root) is not copied, since its copy would
+//! land outside the output's folder; one that names no file is not copied either (the
+//! input's reference dangles too), nor one the rule refuses (an image URI the reader
+//! never opened may name anything). All three are reported, and the output keeps the
+//! reference as written. A file already at the
+//! destination is left alone when it holds the same bytes and is an error otherwise,
+//! so that no file of the user's is replaced.
+
+use super::reference::{asset_folder, lexical, read_referenced, resolve};
+use super::{Document, Format, MeshError, ReadOptions};
+use crate::mesh::Scene;
+use std::path::{Path, PathBuf};
+
+/// What [`copy_side_files`] did.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SideFiles {
+    /// The files written beside the output (already there with the same bytes included).
+    pub copied: Vec<PathBuf>,
+    /// References that name no file beside the input, as written.
+    pub missing: Vec<String>,
+    /// References that resolve outside the input's folder, as written: not copied.
+    pub outside: Vec<String>,
+    /// References the rule for references refuses (absolute, climbing out of the asset
+    /// root, not a regular file, too large), each with why: not copied.
+    pub refused: Vec<String>,
+}
+
+/// MTL statements whose last argument is a texture file.
+fn is_texture_statement(keyword: &str) -> bool {
+    keyword.starts_with("map_") || matches!(keyword, "bump" | "disp" | "decal" | "refl" | "norm")
+}
+
+/// The texture files an MTL library names, each once: the last argument of every map
+/// statement (the options such as `-s 1 1 1` come before it).
+fn mtl_textures(library: &[u8]) -> Vec<String> {
+    let text = String::from_utf8_lossy(library);
+    let mut names: Vec<String> = Vec::new();
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        let Some(keyword) = words.next() else {
+            continue;
+        };
+        if is_texture_statement(keyword) {
+            if let Some(name) = words.last() {
+                if !names.iter().any(|n| n == name) {
+                    names.push(name.to_owned());
+                }
+            }
+        }
+    }
+    names
+}
+
+/// Copy the files that `scene`, read from `input` with `options` and written to
+/// `output`, refers to but does not write, to the same relative paths beside `output`.
+/// Nothing is copied when the output is in the input's folder or its format keeps no
+/// such reference (a scene from OBJ written as glTF gets fresh materials).
+pub fn copy_side_files(
+    input: &Path,
+    scene: &Scene,
+    output: &Path,
+    options: &ReadOptions,
+) -> Result<SideFiles, MeshError> {
+    let mut report = SideFiles::default();
+    let (from, to) = (asset_folder(input), asset_folder(output));
+    let format = Format::from_path(output)?;
+    if lexical(&from) == lexical(&to) {
+        return Ok(report);
+    }
+    let root = options.asset_root.clone().unwrap_or_else(|| from.clone());
+    // (the asset the reference is relative to, the reference)
+    let mut references: Vec<(PathBuf, String)> = Vec::new();
+    match (scene.document.as_deref(), format) {
+        (Some(Document::Obj { material_libraries }), Format::Obj) => {
+            for library in material_libraries {
+                if references.iter().any(|(_, r)| r == library) {
+                    continue;
+                }
+                references.push((input.to_owned(), library.clone()));
+                // Texture names are relative to the library's folder.
+                let path = resolve(input, library, &root);
+                if let (Ok(path), Ok(Some(bytes))) = (path, read_referenced(input, library, &root))
+                {
+                    references.extend(mtl_textures(&bytes).into_iter().map(|t| (path.clone(), t)));
+                }
+            }
+        }
+        (Some(Document::Gltf(document)), Format::Gltf | Format::Glb) => {
+            for uri in document
+                .root()
+                .images
+                .iter()
+                .filter_map(|i| i.uri.as_deref())
+            {
+                if uri.starts_with("data:") {
+                    continue;
+                }
+                let reference = super::reference::percent_decode(uri).ok_or_else(|| {
+                    MeshError::invalid(input, format!("image URI '{uri}' has a malformed %-escape"))
+                })?;
+                references.push((input.to_owned(), reference));
+            }
+        }
+        _ => {}
+    }
+    let (from_lexical, mut seen) = (lexical(&from), Vec::<PathBuf>::new());
+    for (asset, reference) in references {
+        let source = match resolve(&asset, &reference, &root) {
+            Ok(source) => source,
+            Err(why) => {
+                report.refused.push(why.to_string());
+                continue;
+            }
+        };
+        let relative = lexical(&source)
+            .zip(from_lexical.as_ref())
+            .and_then(|(source, from)| source.strip_prefix(from).ok().map(Path::to_owned));
+        let Some(relative) = relative else {
+            report.outside.push(reference);
+            continue;
+        };
+        if seen.contains(&relative) {
+            continue;
+        }
+        seen.push(relative.clone());
+        let bytes = match read_referenced(&asset, &reference, &root) {
+            Ok(Some(bytes)) => bytes,
+            Ok(None) => {
+                report.missing.push(reference);
+                continue;
+            }
+            Err(why) => {
+                report.refused.push(why.to_string());
+                continue;
+            }
+        };
+        let destination = to.join(&relative);
+        match std::fs::read(&destination) {
+            Ok(there) if there == bytes => {}
+            Ok(_) => {
+                return Err(MeshError::invalid(
+                    &destination,
+                    format!(
+                        "exists and differs from {}, which the output refers to as '{reference}': remove it or write the output to another folder",
+                        source.display()
+                    ),
+                ))
+            }
+            Err(_) => {
+                if let Some(parent) = destination.parent() {
+                    std::fs::create_dir_all(parent).map_err(|e| MeshError::io(parent, e))?;
+                }
+                std::fs::write(&destination, &bytes)
+                    .map_err(|e| MeshError::io(&destination, e))?;
+            }
+        }
+        report.copied.push(destination);
+    }
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_texture_is_the_last_argument_of_each_map_statement() {
+        let library = b"newmtl a\nKd 1 0 0\nmap_Kd -s 1 1 1 tex/a.png\nbump -bm 0.5 n.png\n\
+                        map_Ks tex/a.png\nrefl -type sphere env.jpg\nmap_d\nnewmtl b\n";
+        assert_eq!(mtl_textures(library), ["tex/a.png", "n.png", "env.jpg"]);
+    }
+}

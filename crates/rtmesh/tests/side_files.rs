@@ -1,0 +1,173 @@
+//! The files an output refers to and does not hold (an OBJ's material libraries and
+//! their textures, a glTF's image files) are copied beside an output in another folder,
+//! byte for byte at the same relative paths, and only by the rule for references: a
+//! crafted reference copies nothing from outside the input's folder.
+
+use rtmesh::io::{copy_side_files, ReadOptions, SideFiles};
+use std::path::{Path, PathBuf};
+
+/// A fresh folder with `in/` and `out/`, and a canary file beside `in/`.
+fn sandbox(name: &str) -> (PathBuf, PathBuf) {
+    let root = std::env::temp_dir().join(format!("rtmesh-side-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(root.join("in/tex")).unwrap();
+    std::fs::create_dir_all(root.join("out")).unwrap();
+    std::fs::write(root.join("canary.png"), "secret").unwrap();
+    (root.join("in"), root.join("out"))
+}
+
+const QUAD: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nusemtl glass\nf 1 2 3\nf 2 4 3\n";
+
+/// Read `input`, write it to `output` and copy its side files.
+fn convert(input: &Path, output: &Path, options: &ReadOptions) -> SideFiles {
+    let scene = rtmesh::io::read_with(input, options, &mut |_, _| {}).unwrap();
+    let copies = copy_side_files(input, &scene, output, options).unwrap();
+    rtmesh::io::write(&scene, output).unwrap();
+    copies
+}
+
+#[test]
+fn an_obj_written_elsewhere_keeps_its_materials_and_textures() {
+    let (input, out) = sandbox("obj");
+    std::fs::write(
+        input.join("a.obj"),
+        format!("mtllib a.mtl\nmtllib a.mtl\n{QUAD}"),
+    )
+    .unwrap();
+    let library = "newmtl glass\nd 0.5\nmap_Kd -s 2 2 1 tex/diffuse.png\nbump tex/n.png\nmap_Ks tex/diffuse.png\n";
+    std::fs::write(input.join("a.mtl"), library).unwrap();
+    std::fs::write(input.join("tex/diffuse.png"), [1u8, 2, 3]).unwrap();
+    std::fs::write(input.join("tex/n.png"), [4u8]).unwrap();
+
+    let copies = convert(
+        &input.join("a.obj"),
+        &out.join("a.obj"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(
+        copies.copied,
+        [
+            out.join("a.mtl"),
+            out.join("tex/diffuse.png"),
+            out.join("tex/n.png")
+        ]
+    );
+    assert!(copies.missing.is_empty() && copies.outside.is_empty() && copies.refused.is_empty());
+    assert_eq!(std::fs::read_to_string(out.join("a.mtl")).unwrap(), library);
+    assert_eq!(
+        std::fs::read(out.join("tex/diffuse.png")).unwrap(),
+        [1, 2, 3]
+    );
+    // The output, read where it is, still finds its material: the glass is cut-out.
+    let back = rtmesh::io::read(&out.join("a.obj")).unwrap();
+    let glass = back.materials.iter().find(|m| m.name == "glass").unwrap();
+    assert!(glass.alpha_tested);
+
+    // Again: the same bytes are there, so nothing is in the way.
+    let again = convert(
+        &input.join("a.obj"),
+        &out.join("a.obj"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(again, copies);
+    // A different file in the way is an error, and it is left as it was.
+    std::fs::write(out.join("tex/n.png"), "mine").unwrap();
+    let scene = rtmesh::io::read(&input.join("a.obj")).unwrap();
+    let error = copy_side_files(
+        &input.join("a.obj"),
+        &scene,
+        &out.join("a.obj"),
+        &Default::default(),
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(error.contains("n.png: exists and differs"), "{error}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("tex/n.png")).unwrap(),
+        "mine"
+    );
+}
+
+#[test]
+fn nothing_is_copied_into_the_input_folder_or_for_a_format_without_the_reference() {
+    let (input, out) = sandbox("same");
+    std::fs::write(input.join("a.obj"), format!("mtllib a.mtl\n{QUAD}")).unwrap();
+    std::fs::write(input.join("a.mtl"), "newmtl glass\n").unwrap();
+    let same = convert(
+        &input.join("a.obj"),
+        &input.join("b.obj"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(same, SideFiles::default());
+    // A glTF written from an OBJ has materials of its own, no `mtllib`.
+    let gltf = convert(
+        &input.join("a.obj"),
+        &out.join("a.glb"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(gltf, SideFiles::default());
+    assert!(!out.join("a.mtl").exists());
+}
+
+#[test]
+fn a_gltf_written_elsewhere_keeps_its_image_files_and_crafted_uris_copy_nothing() {
+    let (input, out) = sandbox("gltf");
+    // One triangle in a data: buffer, five images: a %-escaped name, the same file
+    // again, a data: image, a missing file, two that break the rule.
+    let buffer =
+        "data:application/octet-stream;base64,AAAAAAAAAAAAAAAAAACAPwAAAAAAAAAAAAAAAAAAgD8AAAAA";
+    let document = format!(
+        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"uri":"{buffer}","byteLength":36}}],
+        "bufferViews":[{{"buffer":0,"byteLength":36}}],
+        "accessors":[{{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,0],"max":[1,1,0]}}],
+        "images":[{{"uri":"tex/base%20colour.png"}},{{"uri":"tex/base colour.png"}},
+                  {{"uri":"data:image/png;base64,AAAA"}},{{"uri":"tex/gone.png"}},
+                  {{"uri":"../canary.png"}},{{"uri":"/etc/passwd"}}],
+        "meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+        "nodes":[{{"mesh":0}}],"scenes":[{{"nodes":[0]}}],"scene":0}}"#
+    );
+    std::fs::write(input.join("a.gltf"), document).unwrap();
+    std::fs::write(input.join("tex/base colour.png"), [9u8; 5]).unwrap();
+
+    let copies = convert(
+        &input.join("a.gltf"),
+        &out.join("a.glb"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(copies.copied, [out.join("tex/base colour.png")]);
+    assert_eq!(
+        std::fs::read(out.join("tex/base colour.png")).unwrap(),
+        [9; 5]
+    );
+    assert_eq!(copies.missing, ["tex/gone.png"]);
+    assert_eq!(copies.refused.len(), 2, "{:?}", copies.refused);
+    assert!(
+        copies.refused[0].contains("'../canary.png'"),
+        "{:?}",
+        copies.refused
+    );
+    let parent = out.parent().unwrap();
+    let files: Vec<_> = std::fs::read_dir(parent)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(files.len(), 3, "only in/, out/ and the canary: {files:?}");
+    assert!(!out.join("canary.png").exists() && !out.join("etc").exists());
+}
+
+#[test]
+fn a_library_above_the_input_folder_is_reported_not_copied_out_of_the_output_folder() {
+    let (input, out) = sandbox("root");
+    let root = input.parent().unwrap().to_owned();
+    std::fs::create_dir_all(input.join("obj")).unwrap();
+    std::fs::write(input.join("obj/a.obj"), format!("mtllib ../a.mtl\n{QUAD}")).unwrap();
+    std::fs::write(input.join("a.mtl"), "newmtl glass\nmap_Kd tex/d.png\n").unwrap();
+    std::fs::create_dir_all(out.join("obj")).unwrap();
+    let options = ReadOptions {
+        asset_root: Some(root.clone()),
+    };
+    let copies = convert(&input.join("obj/a.obj"), &out.join("obj/a.obj"), &options);
+    assert!(copies.copied.is_empty());
+    assert_eq!(copies.outside, ["../a.mtl", "tex/d.png"]);
+    assert!(!out.join("a.mtl").exists());
+}
