@@ -35,6 +35,27 @@ run repair "$morph" --split-elongated --force-split -o "$out/morph-split.glb" --
 run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
 run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
 run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0
+# An OBJ with an MTL library and PNG textures, as glTF: its colours and textures
+# translated, the images copied beside the outputs (the validator loads them).
+src="$(mktemp -d)"
+mkdir -p "$src/tex"
+python3 - "$src/tex" <<'PY'
+import struct, sys, zlib
+def png(path, rgba):
+    rows = b''.join(b'\x00' + bytes(rgba) * 4 for _ in range(4))
+    chunk = lambda t, d: struct.pack('>I', len(d)) + t + d + struct.pack('>I', zlib.crc32(t + d))
+    head = struct.pack('>IIBBBBB', 4, 4, 8, 6, 0, 0, 0)
+    open(path, 'wb').write(b'\x89PNG\r\n\x1a\n' + chunk(b'IHDR', head) + chunk(b'IDAT', zlib.compress(rows)) + chunk(b'IEND', b''))
+png(sys.argv[1] + '/paint.png', [200, 100, 50, 255])
+png(sys.argv[1] + '/normal.png', [128, 128, 255, 255])
+PY
+printf 'newmtl paint\nKd 1 0 0\nmap_Kd tex/paint.png\nnorm tex/normal.png\nnewmtl glass\nKd 0.2 0.4 0.6\nd 0.5\nKe 0.1 0 0\n' > "$src/textured.mtl"
+printf 'mtllib textured.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\nvn 0 0 1\nusemtl paint\nf 1/1/1 2/2/1 3/3/1\nusemtl glass\nf 2/2/1 4/4/1 3/3/1\n' > "$src/textured.obj"
+mkdir -p "$out/textured"
+run convert "$src/textured.obj" "$out/textured/textured.gltf"
+run convert "$src/textured.obj" "$out/textured/textured.glb"
+run optimize "$src" -o "$out/textured/optimized" --format glb --size 0x0
+rm -rf "$src"
 # `animate --motion gltf`: skinned frames baked into one geometry each.
 run animate "$data/animated/Fox.glb" --motion gltf:Run --frames 3 -o "$out/fox-run-frames"
 run animate "$data/animated/BrainStem.glb" --motion gltf --frames 2 -o "$out/brainstem-frames" --format gltf

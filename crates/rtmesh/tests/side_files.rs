@@ -171,3 +171,93 @@ fn a_library_above_the_input_folder_is_reported_not_copied_out_of_the_output_fol
     assert_eq!(copies.outside, ["../a.mtl", "tex/d.png"]);
     assert!(!out.join("a.mtl").exists());
 }
+
+/// The glTF document of a .gltf file.
+fn document(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn an_obj_written_as_gltf_keeps_its_mtl_colours_and_textures() {
+    let (input, out) = sandbox("obj-to-gltf");
+    std::fs::create_dir_all(input.join("mat/tex")).unwrap();
+    let obj =
+        "mtllib mat/a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 0 1\nvt 1 1\n\
+               usemtl painted\nf 1/1 2/2 3/3\nusemtl glass\nf 2/2 4/4 3/3\n";
+    std::fs::write(input.join("a.obj"), obj).unwrap();
+    // The library is in a subfolder and names its textures relative to itself.
+    let library = "newmtl painted\nKd 1 0 0\nmap_Kd -s 1 1 1 tex/paint.png\nbump tex/n.png\n\
+                   newmtl glass\nKd 0.25 0.5 0.75\nd 0.5\nKe 0.125 0 0\n";
+    std::fs::write(input.join("mat/a.mtl"), library).unwrap();
+    std::fs::write(input.join("mat/tex/paint.png"), [1u8]).unwrap();
+    std::fs::write(input.join("mat/tex/n.png"), [2u8]).unwrap();
+
+    let copies = convert(
+        &input.join("a.obj"),
+        &out.join("a.gltf"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(
+        copies.copied,
+        [out.join("mat/tex/paint.png"), out.join("mat/tex/n.png")]
+    );
+    let gltf = document(&out.join("a.gltf"));
+    let flip =
+        serde_json::json!({"KHR_texture_transform": {"offset": [0.0, 1.0], "scale": [1.0, -1.0]}});
+    assert_eq!(
+        gltf["extensionsUsed"],
+        serde_json::json!(["KHR_texture_transform"])
+    );
+    assert_eq!(
+        gltf["images"],
+        serde_json::json!([{"uri": "mat/tex/paint.png"}, {"uri": "mat/tex/n.png"}])
+    );
+    let painted = &gltf["materials"][0];
+    assert_eq!(painted["name"], "painted");
+    assert_eq!(painted["alphaMode"], "OPAQUE");
+    let pbr = &painted["pbrMetallicRoughness"];
+    // Under a map_Kd the texture holds the colour; the surface is a rough dielectric.
+    assert_eq!(
+        pbr["baseColorFactor"],
+        serde_json::json!([1.0, 1.0, 1.0, 1.0])
+    );
+    assert_eq!(pbr["metallicFactor"], 0.0);
+    assert_eq!(pbr["roughnessFactor"], 1.0);
+    let base = &gltf["textures"][pbr["baseColorTexture"]["index"].as_u64().unwrap() as usize];
+    assert_eq!(base["source"], 0);
+    assert_eq!(pbr["baseColorTexture"]["extensions"], flip);
+    assert_eq!(painted["normalTexture"]["index"], 1);
+    assert_eq!(painted["normalTexture"]["extensions"], flip);
+    let glass = &gltf["materials"][1];
+    assert_eq!(glass["alphaMode"], "BLEND");
+    assert_eq!(
+        glass["pbrMetallicRoughness"]["baseColorFactor"],
+        serde_json::json!([0.25, 0.5, 0.75, 0.5])
+    );
+    assert_eq!(
+        glass["emissiveFactor"],
+        serde_json::json!([0.125, 0.0, 0.0])
+    );
+    assert!(glass["pbrMetallicRoughness"]
+        .get("baseColorTexture")
+        .is_none());
+    // The coordinates themselves are written as read: the texture takes the flip.
+    let back = rtmesh::io::read(&out.join("a.gltf")).unwrap();
+    let before = rtmesh::io::read(&input.join("a.obj")).unwrap();
+    let uv = |scene: &rtmesh::Scene| -> Vec<[f32; 2]> {
+        let mesh = &scene.meshes[0];
+        let stream = mesh
+            .attributes
+            .iter()
+            .find(|a| a.name == "TEXCOORD_0")
+            .unwrap();
+        let rtmesh::mesh::AttributeValues::F32(values) = &stream.values else {
+            panic!("float coordinates")
+        };
+        let corners = mesh.triangles.iter().flatten();
+        corners
+            .map(|&v| [values[2 * v as usize], values[2 * v as usize + 1]])
+            .collect()
+    };
+    assert_eq!(uv(&back), uv(&before));
+}

@@ -17,7 +17,7 @@
 //! the libraries and their textures beside an output in another folder.
 
 use super::{CountingReader, MeshError};
-use crate::mesh::{Material, Scene, TriMesh, VertexAttribute};
+use crate::mesh::{Material, MtlLook, Scene, TriMesh, VertexAttribute};
 use glam::{Affine3A, Vec3};
 use std::collections::HashMap;
 use std::io::{BufRead, Write};
@@ -74,7 +74,11 @@ pub(super) fn read<R: BufRead>(
                     ));
                     return Err(tobj::LoadError::OpenFileFailed);
                 }
-                tobj::load_mtl_buf(&mut &bytes[..])
+                let (mut materials, names) = tobj::load_mtl_buf(&mut &bytes[..])?;
+                for material in &mut materials {
+                    relative_to_obj(material, &name);
+                }
+                Ok((materials, names))
             }
             Ok(None) if stand_ins_loaded.replace(true) => Ok(Default::default()),
             Ok(None) => tobj::load_mtl_buf(&mut named_only.as_bytes()),
@@ -96,6 +100,7 @@ pub(super) fn read<R: BufRead>(
             .map(|m| Material {
                 name: m.name.clone(),
                 alpha_tested: m.dissolve_texture.is_some() || m.dissolve.is_some_and(|d| d < 1.0),
+                mtl: Some(look(m)),
             })
             .collect(),
         ..Scene::default()
@@ -177,6 +182,53 @@ pub(super) fn read<R: BufRead>(
         scene.materials.push(Material::default());
     }
     Ok(scene)
+}
+
+/// The file a texture statement's argument names: its last word (options such as
+/// `-s 1 1 1` come before it).
+pub(super) fn texture_file(argument: &str) -> Option<&str> {
+    argument.split_whitespace().last()
+}
+
+/// The texture statements tobj keeps by name that glTF has a place for.
+const NORM: &str = "norm";
+const MAP_KE: &str = "map_Ke";
+
+/// Each texture of `material`, from the library `library` (as `mtllib` names it),
+/// named by its file alone and relative to the OBJ's folder, as [`MtlLook`] keeps them.
+fn relative_to_obj(material: &mut tobj::Material, library: &str) {
+    let folder = Path::new(library)
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty());
+    let relative = |argument: &mut String| {
+        if let Some(file) = texture_file(argument) {
+            *argument = folder.map_or_else(
+                || file.to_owned(),
+                |folder| format!("{}/{file}", folder.to_string_lossy()),
+            );
+        }
+    };
+    let kept = (material.unknown_param.iter_mut())
+        .filter(|(key, _)| [NORM, MAP_KE].contains(&key.as_str()))
+        .map(|(_, value)| value);
+    let own = [&mut material.diffuse_texture, &mut material.normal_texture];
+    for texture in own.into_iter().flatten().chain(kept) {
+        relative(texture);
+    }
+}
+
+/// What glTF can hold of an MTL material's look.
+fn look(material: &tobj::Material) -> MtlLook {
+    let param = |key: &str| material.unknown_param.get(key).cloned();
+    MtlLook {
+        diffuse: material.diffuse.unwrap_or([1.0; 3]),
+        dissolve: material.dissolve.unwrap_or(1.0),
+        emissive: material.emissive.unwrap_or([0.0; 3]),
+        diffuse_map: material.diffuse_texture.clone(),
+        normal_map: material.normal_texture.clone().or_else(|| param(NORM)),
+        emissive_map: param(MAP_KE),
+        dissolve_map: material.dissolve_texture.is_some(),
+    }
 }
 
 /// The vertices of one tobj model, each distinct (position, texture coordinate, normal)

@@ -158,9 +158,31 @@ pub(crate) fn percent_decode(uri: &str) -> Option<String> {
     String::from_utf8(out).ok()
 }
 
+/// A relative file path as a URI reference: every byte but the unreserved ones and `/`
+/// `%XX`-escaped, so that [`percent_decode`] gives it back.
+pub(crate) fn percent_encode(path: &str) -> String {
+    let mut out = String::with_capacity(path.len());
+    for &byte in path.as_bytes() {
+        if byte.is_ascii_alphanumeric() || b"-._~/".contains(&byte) {
+            out.push(byte as char);
+        } else {
+            out.push_str(&format!("%{byte:02X}"));
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn percent_encoding_round_trips() {
+        for path in ["tex/a b.png", "tëx/100%.jpg", "plain/name_1-2.~x"] {
+            assert_eq!(percent_decode(&percent_encode(path)).as_deref(), Some(path));
+        }
+        assert_eq!(percent_encode("tex/a b#1.png"), "tex/a%20b%231.png");
+    }
 
     #[test]
     fn references_stay_in_the_assets_folder() {

@@ -1,5 +1,6 @@
 //! The files a written mesh refers to that the writer does not write: an OBJ's material
-//! libraries (`mtllib`) and the texture maps they name, a glTF's images stored as files.
+//! libraries (`mtllib`) and the texture maps they name, a glTF's images stored as files
+//! (for a glTF written from an OBJ, the MTL textures its materials took).
 //! Writers keep those references as the input wrote them (relative paths), so an
 //! output in another folder would point at nothing and lose its materials' textures;
 //! [`copy_side_files`] copies each one to the same relative place beside the output.
@@ -45,12 +46,10 @@ fn mtl_textures(library: &[u8]) -> Vec<String> {
     let text = String::from_utf8_lossy(library);
     let mut names: Vec<String> = Vec::new();
     for line in text.lines() {
-        let mut words = line.split_whitespace();
-        let Some(keyword) = words.next() else {
-            continue;
-        };
+        let line = line.trim();
+        let (keyword, argument) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
         if is_texture_statement(keyword) {
-            if let Some(name) = words.last() {
+            if let Some(name) = super::obj::texture_file(argument) {
                 if !names.iter().any(|n| n == name) {
                     names.push(name.to_owned());
                 }
@@ -63,7 +62,7 @@ fn mtl_textures(library: &[u8]) -> Vec<String> {
 /// Copy the files that `scene`, read from `input` with `options` and written to
 /// `output`, refers to but does not write, to the same relative paths beside `output`.
 /// Nothing is copied when the output is in the input's folder or its format keeps no
-/// such reference (a scene from OBJ written as glTF gets fresh materials).
+/// such reference (PLY, STL; an OBJ from a glTF).
 pub fn copy_side_files(
     input: &Path,
     scene: &Scene,
@@ -108,6 +107,15 @@ pub fn copy_side_files(
                     MeshError::invalid(input, format!("image URI '{uri}' has a malformed %-escape"))
                 })?;
                 references.push((input.to_owned(), reference));
+            }
+        }
+        (_, Format::Gltf | Format::Glb) => {
+            // A fresh document: the images are the MTL textures the materials name.
+            for look in scene.materials.iter().filter_map(|m| m.mtl.as_ref()) {
+                let maps = [&look.diffuse_map, &look.normal_map, &look.emissive_map];
+                for map in maps.into_iter().flatten() {
+                    references.push((input.to_owned(), map.clone()));
+                }
             }
         }
         _ => {}

@@ -201,10 +201,12 @@ fn gltf_keeps_materials_and_alpha_flags() {
         crate::mesh::Material {
             name: "stone".into(),
             alpha_tested: false,
+            mtl: None,
         },
         crate::mesh::Material {
             name: "leaves".into(),
             alpha_tested: true,
+            mtl: None,
         },
     ];
     let back = round_trip(&scene, "glb");

@@ -56,6 +56,33 @@ pub struct Material {
     pub name: String,
     /// True for cut-out materials: OBJ `map_d` or `d < 1`, glTF `alphaMode` MASK or BLEND.
     pub alpha_tested: bool,
+    /// How an OBJ material looks, in MTL's terms, for a writer that translates it (a
+    /// glTF written from an OBJ); `None` elsewhere (a glTF's document keeps its
+    /// materials whole).
+    #[serde(skip)]
+    pub mtl: Option<MtlLook>,
+}
+
+/// What an MTL material says about its look, as far as glTF can hold it. Texture files
+/// are relative to the OBJ's folder (a library in a subfolder names them relative to
+/// itself: they are prefixed with its folder).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MtlLook {
+    /// `Kd`: white when absent.
+    pub diffuse: [f32; 3],
+    /// `d`, the opacity: 1 when absent.
+    pub dissolve: f32,
+    /// `Ke`: black when absent.
+    pub emissive: [f32; 3],
+    /// `map_Kd`.
+    pub diffuse_map: Option<String>,
+    /// `map_Bump`, `bump` or `norm`: glTF takes it as a normal map.
+    pub normal_map: Option<String>,
+    /// `map_Ke`.
+    pub emissive_map: Option<String>,
+    /// Whether it has a `map_d`, a cut-out mask (glTF has no place for the map itself:
+    /// its opacity is the base colour's alpha).
+    pub dissolve_map: bool,
 }
 
 /// One triangle geometry: shared vertices, indexed triangles and per-triangle attributes.

@@ -62,6 +62,7 @@ pub(super) fn read<R: BufRead>(
             .map(|m| Material {
                 name: m.name().unwrap_or_default().to_owned(),
                 alpha_tested: m.alpha_mode() != gltf::material::AlphaMode::Opaque,
+                mtl: None,
             })
             .collect(),
         ..Scene::default()

@@ -7,7 +7,8 @@
 //! attributes and morph targets); accessors and buffer views only those primitives
 //! used are dropped, every other one is copied and renumbered, and all data goes to one
 //! buffer. A scene from another format gets a fresh document: one node per instance,
-//! its materials by name and alpha mode, every attribute stream on every primitive.
+//! its materials by name and alpha mode (an OBJ's MTL colours and textures translated,
+//! see `material_from_mtl`), every attribute stream on every primitive.
 //!
 //! glTF forbids NaN and infinity: inactive triangles (a non-finite corner) are written
 //! collapsed onto a finite corner, keeping their place ([`WriteNotes`]). Unit vectors
@@ -497,22 +498,99 @@ fn fresh_primitive(scene: &Scene, material: u32) -> json::mesh::Primitive {
     }
 }
 
-/// The document a scene from another format starts from: its materials.
+/// The document a scene from another format starts from: its materials, with their
+/// textures and images for materials from an MTL library.
 fn fresh_root(scene: &Scene) -> json::Root {
+    let mut images: Vec<String> = Vec::new();
+    let mut texture = |file: &Option<String>| {
+        file.as_ref().map(|file| {
+            let index = images.iter().position(|i| i == file).unwrap_or_else(|| {
+                images.push(file.clone());
+                images.len() - 1
+            });
+            // OBJ's texture coordinates start at the image's bottom row, glTF's at its
+            // top. The coordinates are written exactly as read (every attribute is kept
+            // bit for bit), and the texture takes the flip: v' = 1 - v.
+            value!({ "index": index, "extensions": { TEXTURE_TRANSFORM: {
+                "offset": [0.0, 1.0], "scale": [1.0, -1.0] } } })
+        })
+    };
     let materials = scene
         .materials
         .iter()
         .map(|m| {
-            serde_json::from_value(value!({
+            let mut material = value!({
                 "name": m.name,
                 "alphaMode": if m.alpha_tested { "MASK" } else { "OPAQUE" },
-            }))
-            .expect("a material of name and alpha mode")
+            });
+            if let Some(look) = &m.mtl {
+                material_from_mtl(&mut material, look, &mut texture);
+            }
+            serde_json::from_value(material).expect("a glTF material")
+        })
+        .collect();
+    let textures = (0..images.len())
+        .map(|i| serde_json::from_value(value!({ "source": i })).expect("a glTF texture"))
+        .collect();
+    let images: Vec<json::Image> = (images.iter())
+        .map(|file| {
+            let uri = crate::io::reference::percent_encode(file);
+            serde_json::from_value(value!({ "uri": uri })).expect("a glTF image")
         })
         .collect();
     json::Root {
+        extensions_used: (!images.is_empty())
+            .then(|| TEXTURE_TRANSFORM.to_owned())
+            .into_iter()
+            .collect(),
         materials,
+        textures,
+        images,
         ..json::Root::default()
+    }
+}
+
+/// The glTF extension that flips an OBJ's texture coordinates for its textures.
+const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
+
+/// An MTL material's look in glTF's terms, as obj2gltf translates it: `Kd` and `d` are
+/// the base colour (white under a `map_Kd`, which holds the colour itself), and the
+/// surface is a rough dielectric (glTF's default, a smooth metal, would turn a diffuse
+/// OBJ dark); `Ke` is the emissive factor; the bump map becomes the normal texture.
+/// An opacity below 1 without a cut-out map is blended. MTL's specular terms and
+/// `map_d` have no glTF place (glTF takes opacity from the base colour's alpha).
+fn material_from_mtl(
+    material: &mut serde_json::Value,
+    look: &crate::mesh::MtlLook,
+    texture: &mut dyn FnMut(&Option<String>) -> Option<serde_json::Value>,
+) {
+    let [r, g, b] = match look.diffuse_map {
+        Some(_) => [1.0; 3],
+        None => look.diffuse,
+    };
+    let mut pbr = value!({
+        "baseColorFactor": [r, g, b, look.dissolve.clamp(0.0, 1.0)],
+        "metallicFactor": 0.0,
+        "roughnessFactor": 1.0,
+    });
+    if let Some(base) = texture(&look.diffuse_map) {
+        pbr["baseColorTexture"] = base;
+    }
+    material["pbrMetallicRoughness"] = pbr;
+    if look.dissolve < 1.0 && !look.dissolve_map {
+        material["alphaMode"] = value!("BLEND");
+    }
+    if look.emissive != [0.0; 3] {
+        material["emissiveFactor"] = value!(look.emissive.map(|e| e.clamp(0.0, 1.0)));
+    }
+    if let Some(normal) = texture(&look.normal_map) {
+        material["normalTexture"] = normal;
+    }
+    if let Some(emissive) = texture(&look.emissive_map) {
+        material["emissiveTexture"] = emissive;
+        if look.emissive == [0.0; 3] {
+            material["emissiveFactor"] = value!([1.0, 1.0, 1.0]);
+        }
     }
 }
 
