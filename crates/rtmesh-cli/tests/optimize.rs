@@ -364,6 +364,26 @@ fn an_output_never_replaces_its_input() {
     assert!(stderr.contains("other.bin: this is the buffer"), "{stderr}");
     assert_eq!(std::fs::read_to_string(&input).unwrap(), QUADS);
     assert_eq!(std::fs::read(dir.join("other.bin")).unwrap(), buffer);
+    // A batch: one error before any work, for its own input or another's.
+    let batch = dir.join("batch");
+    std::fs::create_dir_all(&batch).unwrap();
+    std::fs::write(batch.join("a.obj"), QUADS).unwrap();
+    std::fs::copy(dir.join("quads.gltf"), batch.join("a.gltf")).unwrap();
+    std::fs::copy(dir.join("quads.bin"), batch.join("quads.bin")).unwrap();
+    let out = optimize(
+        &batch,
+        &batch,
+        &["--size", "16x16", "--runs", "1", "--json"],
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(out.stdout.is_empty(), "no file was started");
+    assert!(
+        stderr.contains("a.gltf: this is the input file"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert_eq!(std::fs::read_to_string(batch.join("a.obj")).unwrap(), QUADS);
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -281,7 +281,41 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
             bytes,
         });
     }
+    refuse_replacing_inputs(&jobs)?;
     Ok(jobs)
+}
+
+/// One error before any work when an output would replace an input of this run: its
+/// own, as with `optimize d -o d`, or another's (where two inputs would be written to
+/// one file, that is said first).
+fn refuse_replacing_inputs(jobs: &[Job]) -> Result<()> {
+    let inputs: Vec<(PathBuf, &str)> = (jobs.iter())
+        .filter_map(|job| Some((std::fs::canonicalize(&job.input).ok()?, job.input.as_str())))
+        .collect();
+    for job in jobs {
+        let Some(output) = job
+            .output
+            .as_ref()
+            .and_then(|o| std::fs::canonicalize(o).ok())
+        else {
+            continue;
+        };
+        if let Some((_, input)) = inputs.iter().find(|(path, _)| *path == output) {
+            let what = if *input == job.input {
+                "the input file, which the output would replace".to_owned()
+            } else {
+                format!(
+                    "the input {input}, which the output of {} would replace",
+                    job.input
+                )
+            };
+            bail!(
+                "{}: this is {what}: write the outputs to another folder",
+                job.output.as_ref().expect("canonicalized").display(),
+            );
+        }
+    }
+    Ok(())
 }
 
 /// Every mesh file under `dir`, recursively (links not followed), except in the
