@@ -354,3 +354,26 @@ fn material_libraries_are_read_once_and_within_a_budget() {
     );
     std::fs::remove_dir_all(root).ok();
 }
+
+/// tobj 4.0.5 panics on a colour of fewer than three numbers (found by fuzzing
+/// `obj_side_files`: `Ke 0`). One number is MTL's grey (`Kd r` is `Kd r r r`), and is
+/// read so; none or two are an error at the library's line.
+#[test]
+fn mtl_colours_of_one_number_are_grey_and_of_none_or_two_are_errors() {
+    let (root, asset) = sandbox("mtl-colours");
+    let triangle = "mtllib a.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl m\nf 1 2 3\n";
+    std::fs::write(asset.join("a.obj"), triangle).unwrap();
+    std::fs::write(asset.join("a.mtl"), "newmtl m\nKd 0.5\nKe 0.25\nKs 1 0 0").unwrap();
+    let scene = rtmesh::io::read(&asset.join("a.obj")).unwrap();
+    let m = scene.materials.iter().find(|m| m.name == "m").unwrap();
+    let look = m.mtl.as_ref().unwrap();
+    assert_eq!((look.diffuse, look.emissive), ([0.5; 3], [0.25; 3]));
+    for (colours, line, count) in [("Kd 1 1 1\nKe", 3, 0), ("Ka 0 0", 2, 2)] {
+        std::fs::write(asset.join("a.mtl"), format!("newmtl m\n{colours}\n")).unwrap();
+        let message = error_reading(&asset.join("a.obj"));
+        let expected = format!("a.mtl:{line}: '");
+        assert!(message.contains(&expected), "{message}");
+        assert!(message.contains(&format!("not {count}")), "{message}");
+    }
+    std::fs::remove_dir_all(root).ok();
+}

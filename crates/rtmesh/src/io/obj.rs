@@ -74,6 +74,16 @@ pub(super) fn read<R: BufRead>(
                     ));
                     return Err(tobj::LoadError::OpenFileFailed);
                 }
+                let bytes = match colours_as_triples(&bytes) {
+                    Ok(bytes) => bytes,
+                    Err((line, message)) => {
+                        let library = super::reference::asset_folder(path).join(&*name);
+                        refused
+                            .borrow_mut()
+                            .get_or_insert(MeshError::at_line(&library, line, message));
+                        return Err(tobj::LoadError::MaterialParseError);
+                    }
+                };
                 let (mut materials, names) = tobj::load_mtl_buf(&mut &bytes[..])?;
                 for material in &mut materials {
                     relative_to_obj(material, &name);
@@ -182,6 +192,55 @@ pub(super) fn read<R: BufRead>(
         scene.materials.push(Material::default());
     }
     Ok(scene)
+}
+
+/// The colour statements tobj reads as exactly three numbers.
+const COLOURS: [&str; 4] = ["Ka", "Kd", "Ks", "Ke"];
+
+/// An MTL library with every colour given as one number written as three: the MTL
+/// specification lets `Kd r` stand for `Kd r r r`, and tobj 4.0.5 panics on fewer than
+/// three. A colour with no number or two is an error at its line (1-based).
+fn colours_as_triples(library: &[u8]) -> Result<std::borrow::Cow<'_, [u8]>, (usize, String)> {
+    let mut out: Option<Vec<u8>> = None;
+    let mut start = 0;
+    for (n, line) in library.split(|&b| b == b'\n').enumerate() {
+        let end = start + line.len();
+        let text = String::from_utf8_lossy(line);
+        let mut words = text.split_whitespace();
+        if let Some(keyword) = words.next().filter(|k| COLOURS.contains(k)) {
+            let numbers: Vec<&str> = words.collect();
+            match numbers.len() {
+                1 => {
+                    let copy = out.get_or_insert_with(|| library[..start].to_vec());
+                    let r = numbers[0];
+                    copy.extend_from_slice(format!("{keyword} {r} {r} {r}").as_bytes());
+                }
+                0 | 2 => {
+                    return Err((
+                        n + 1,
+                        format!(
+                            "'{keyword}' needs one number (grey) or three (r g b), not {}",
+                            numbers.len()
+                        ),
+                    ))
+                }
+                _ => {
+                    if let Some(copy) = &mut out {
+                        copy.extend_from_slice(line);
+                    }
+                }
+            }
+        } else if let Some(copy) = &mut out {
+            copy.extend_from_slice(line);
+        }
+        if let Some(copy) = &mut out {
+            if end < library.len() {
+                copy.push(b'\n');
+            }
+        }
+        start = end + 1;
+    }
+    Ok(out.map_or(std::borrow::Cow::Borrowed(library), std::borrow::Cow::Owned))
 }
 
 /// The file a texture statement's argument names: its last word (options such as
