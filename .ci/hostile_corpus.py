@@ -31,6 +31,11 @@ write("error-obj-bad-index.obj", "g part\n" + triangle + "f 1 2 9\n" + "v 2 2 2\
 write("ok-obj-lines-and-points.obj", triangle + "l 1 2 3\np 1 2\n")
 write("ok-obj-nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3\nf 2 4 3\n")
 write("any-empty.obj", "")
+# MTL colours: one number is a grey (tobj panicked on fewer than three), two an error.
+write("grey.mtl", "newmtl grey\nKd 0.5\nKe 0\nmap_Kd ../canary.mtl\n")
+write("ok-obj-mtl-grey.obj", "mtllib grey.mtl\nusemtl grey\n" + triangle)
+write("two.mtl", "newmtl two\nKd 1 0\n")
+write("error-obj-mtl-two-numbers.obj", "mtllib two.mtl\nusemtl two\n" + triangle)
 
 
 def gltf(buffer_uri, nodes=None, roots=None, view_extra=None):
@@ -51,6 +56,10 @@ def gltf(buffer_uri, nodes=None, roots=None, view_extra=None):
 corners = struct.pack("<9f", 0, 0, 0, 1, 0, 0, 0, 1, 0)
 write("ok-bare.bin", corners)
 write("ok-bare.gltf", gltf("ok-bare.bin"))
+# Image URIs are never read, only copied beside outputs elsewhere, by the same rule.
+with_images = json.loads(gltf("ok-bare.bin"))
+with_images["images"] = [{"uri": u} for u in ["../canary.bin", "%2e%2e/canary.bin", "/etc/passwd", "/dev/zero", "missing.png", "ok-bare.bin"]]
+write("ok-gltf-image-uris.gltf", json.dumps(with_images))
 write("refuse-buffer-climb.gltf", gltf("../canary.bin"))
 write("refuse-buffer-escaped.gltf", gltf("%2e%2e/canary.bin"))
 write("refuse-buffer-absolute.gltf", gltf(os.path.join(root, "canary.bin")))

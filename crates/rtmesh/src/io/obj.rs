@@ -78,6 +78,7 @@ pub(super) fn read<R: BufRead>(
                     Ok(bytes) => bytes,
                     Err((line, message)) => {
                         let library = super::reference::asset_folder(path).join(&*name);
+                        let message = format!("{message} (a material library of {})", path.display());
                         refused
                             .borrow_mut()
                             .get_or_insert(MeshError::at_line(&library, line, message));
