@@ -97,6 +97,7 @@ fn info_convert_pair_lint_repair_keys() {
         "attributes",
         "material_names",
         "document",
+        "side_files",
     ];
     assert_keys(&["info", "builtin:grid", "--json"], &info);
     let glb = dir.path().join("room.glb");

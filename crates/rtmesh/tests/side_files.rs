@@ -129,6 +129,15 @@ fn a_gltf_written_elsewhere_keeps_its_image_files_and_crafted_uris_copy_nothing(
     std::fs::write(input.join("a.gltf"), document).unwrap();
     std::fs::write(input.join("tex/base colour.png"), [9u8; 5]).unwrap();
 
+    // What `info` reports of the input: one file there (named twice), one missing, two
+    // refused.
+    let scene = rtmesh::io::read(&input.join("a.gltf")).unwrap();
+    let check = rtmesh::io::check_side_files(&input.join("a.gltf"), &scene, &Default::default());
+    let real = input.join("tex/base colour.png").canonicalize().unwrap();
+    assert_eq!(check.present, [real]);
+    assert_eq!(check.missing, ["tex/gone.png"]);
+    assert_eq!(check.refused.len(), 2);
+
     let copies = convert(
         &input.join("a.gltf"),
         &out.join("a.glb"),

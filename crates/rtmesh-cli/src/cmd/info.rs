@@ -3,6 +3,7 @@
 use crate::args::load;
 use crate::output::emit;
 use anyhow::Result;
+use rtmesh::io::SideFileCheck;
 use rtmesh::mesh::MeshInfo;
 
 /// Counts, bounds and topology of a mesh (after welding identical positions).
@@ -18,10 +19,42 @@ pub struct Args {
     json: bool,
 }
 
+/// `info`'s report: the mesh's figures, and the files it refers to.
+#[derive(serde::Serialize)]
+struct Report {
+    #[serde(flatten)]
+    info: MeshInfo,
+    /// The material libraries, textures and images it refers to besides what was read:
+    /// `present`, `missing`, `refused` (by the rule for references).
+    side_files: SideFileCheck,
+}
+
 /// Read the mesh and report on it.
 pub fn run(args: Args) -> Result<()> {
-    let info = MeshInfo::of(&load(&args.mesh)?);
-    emit(&info, args.json, |info| print(&args.mesh, info))
+    let scene = load(&args.mesh)?;
+    let side_files = if args.mesh.starts_with("builtin:") {
+        SideFileCheck::default()
+    } else {
+        let options = crate::args::read_options();
+        rtmesh::io::check_side_files(std::path::Path::new(&args.mesh), &scene, options)
+    };
+    let report = Report {
+        info: MeshInfo::of(&scene),
+        side_files,
+    };
+    emit(&report, args.json, |r| {
+        print(&args.mesh, &r.info);
+        let files = &r.side_files;
+        if !files.present.is_empty() {
+            println!("  side files         {:>10} there", files.present.len());
+        }
+        for missing in &files.missing {
+            println!("  missing            {missing:>10}  (referred to, not there)");
+        }
+        for why in &files.refused {
+            println!("  refused reference  {why}");
+        }
+    })
 }
 
 /// The text form of `info` for the mesh called `name`.

@@ -20,7 +20,7 @@ mod stl;
 pub use gltf::GltfDocument;
 pub use obj::MAX_MATERIAL_LIBRARY_BYTES;
 pub use reference::MAX_REFERENCED_BYTES;
-pub use side_files::{copy_side_files, SideFiles};
+pub use side_files::{check_side_files, copy_side_files, SideFileCheck, SideFiles};
 
 use crate::mesh::{Scene, TriMesh};
 use std::io::{BufRead, Read};

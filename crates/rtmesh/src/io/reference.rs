@@ -96,6 +96,30 @@ pub(crate) fn read_referenced(
     reference: &str,
     root: &Path,
 ) -> Result<Option<Vec<u8>>, MeshError> {
+    let Some((real, length)) = check_referenced(asset, reference, root)? else {
+        return Ok(None);
+    };
+    let mut bytes = Vec::with_capacity(length as usize);
+    std::fs::File::open(&real)
+        .and_then(|file| file.take(MAX_REFERENCED_BYTES + 1).read_to_end(&mut bytes))
+        .map_err(|e| MeshError::io(&real, e))?;
+    if bytes.len() as u64 > MAX_REFERENCED_BYTES {
+        return Err(refused(
+            asset,
+            reference,
+            "grew past the size limit while read",
+        ));
+    }
+    Ok(Some(bytes))
+}
+
+/// The file `reference` of `asset` names, checked by the rule above without reading it:
+/// its real path and length; `Ok(None)` when there is no such file.
+pub(crate) fn check_referenced(
+    asset: &Path,
+    reference: &str,
+    root: &Path,
+) -> Result<Option<(PathBuf, u64)>, MeshError> {
     let path = resolve(asset, reference, root)?;
     let metadata = match std::fs::metadata(&path) {
         Ok(metadata) => metadata,
@@ -125,18 +149,7 @@ pub(crate) fn read_referenced(
             ),
         ));
     }
-    let mut bytes = Vec::with_capacity(metadata.len() as usize);
-    std::fs::File::open(&real)
-        .and_then(|file| file.take(MAX_REFERENCED_BYTES + 1).read_to_end(&mut bytes))
-        .map_err(|e| MeshError::io(&real, e))?;
-    if bytes.len() as u64 > MAX_REFERENCED_BYTES {
-        return Err(refused(
-            asset,
-            reference,
-            "grew past the size limit while read",
-        ));
-    }
-    Ok(Some(bytes))
+    Ok(Some((real, metadata.len())))
 }
 
 /// `%XX` escapes of a URI decoded (glTF URIs are URI-encoded); `None` when an escape is

@@ -21,6 +21,17 @@ use super::{Document, Format, MeshError, ReadOptions};
 use crate::mesh::Scene;
 use std::path::{Path, PathBuf};
 
+/// What [`check_side_files`] found.
+#[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SideFileCheck {
+    /// The files that are there (their real paths).
+    pub present: Vec<PathBuf>,
+    /// References that name no file, as written.
+    pub missing: Vec<String>,
+    /// References the rule for references refuses, each with why.
+    pub refused: Vec<String>,
+}
+
 /// What [`copy_side_files`] did.
 #[derive(Clone, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct SideFiles {
@@ -59,7 +70,74 @@ fn mtl_textures(library: &[u8]) -> Vec<String> {
     names
 }
 
-/// Copy the files that `scene`, read from `input` with `options` and written to
+/// The files a copy of `scene`, read from `input`, refers to when written as `format`
+/// and does not write itself: (the file the reference is relative to, the reference).
+fn references(input: &Path, scene: &Scene, format: Format, root: &Path) -> Vec<(PathBuf, String)> {
+    let mut references: Vec<(PathBuf, String)> = Vec::new();
+    match (scene.document.as_deref(), format) {
+        (Some(Document::Obj { material_libraries }), Format::Obj) => {
+            for library in material_libraries {
+                if references.iter().any(|(_, r)| r == library) {
+                    continue;
+                }
+                references.push((input.to_owned(), library.clone()));
+                // Texture names are relative to the library's folder.
+                let path = resolve(input, library, root);
+                if let (Ok(path), Ok(Some(bytes))) = (path, read_referenced(input, library, root)) {
+                    references.extend(mtl_textures(&bytes).into_iter().map(|t| (path.clone(), t)));
+                }
+            }
+        }
+        (Some(Document::Gltf(document)), Format::Gltf | Format::Glb) => {
+            let uris = document
+                .root()
+                .images
+                .iter()
+                .filter_map(|i| i.uri.as_deref());
+            for uri in uris.filter(|uri| !uri.starts_with("data:")) {
+                // A malformed %-escape stands as written (and names no file).
+                let reference = super::reference::percent_decode(uri).unwrap_or_else(|| uri.into());
+                references.push((input.to_owned(), reference));
+            }
+        }
+        (_, Format::Gltf | Format::Glb) => {
+            // A fresh document: the images are the MTL textures the materials name.
+            for look in scene.materials.iter().filter_map(|m| m.mtl.as_ref()) {
+                let maps = [&look.diffuse_map, &look.normal_map, &look.emissive_map];
+                for map in maps.into_iter().flatten() {
+                    references.push((input.to_owned(), map.clone()));
+                }
+            }
+        }
+        _ => {}
+    }
+    references
+}
+
+/// The files `scene`, read from `input` with `options`, refers to besides what it read
+/// (an OBJ's material libraries and textures, a glTF's image files), each checked by
+/// the rule for references without reading it: whether it is there.
+pub fn check_side_files(input: &Path, scene: &Scene, options: &ReadOptions) -> SideFileCheck {
+    let mut report = SideFileCheck::default();
+    let Ok(format) = Format::from_path(input) else {
+        return report;
+    };
+    let root = options
+        .asset_root
+        .clone()
+        .unwrap_or_else(|| asset_folder(input));
+    for (asset, reference) in references(input, scene, format, &root) {
+        match super::reference::check_referenced(&asset, &reference, &root) {
+            Ok(Some((real, _))) if report.present.contains(&real) => {}
+            Ok(Some((real, _))) => report.present.push(real),
+            Ok(None) => report.missing.push(reference),
+            Err(why) => report.refused.push(why.to_string()),
+        }
+    }
+    report
+}
+
+/// Copy the files that `scene`, read from `input` with `options`, and written to
 /// `output`, refers to but does not write, to the same relative paths beside `output`.
 /// Nothing is copied when the output is in the input's folder or its format keeps no
 /// such reference (PLY, STL; an OBJ from a glTF).
@@ -76,50 +154,7 @@ pub fn copy_side_files(
         return Ok(report);
     }
     let root = options.asset_root.clone().unwrap_or_else(|| from.clone());
-    // (the asset the reference is relative to, the reference)
-    let mut references: Vec<(PathBuf, String)> = Vec::new();
-    match (scene.document.as_deref(), format) {
-        (Some(Document::Obj { material_libraries }), Format::Obj) => {
-            for library in material_libraries {
-                if references.iter().any(|(_, r)| r == library) {
-                    continue;
-                }
-                references.push((input.to_owned(), library.clone()));
-                // Texture names are relative to the library's folder.
-                let path = resolve(input, library, &root);
-                if let (Ok(path), Ok(Some(bytes))) = (path, read_referenced(input, library, &root))
-                {
-                    references.extend(mtl_textures(&bytes).into_iter().map(|t| (path.clone(), t)));
-                }
-            }
-        }
-        (Some(Document::Gltf(document)), Format::Gltf | Format::Glb) => {
-            for uri in document
-                .root()
-                .images
-                .iter()
-                .filter_map(|i| i.uri.as_deref())
-            {
-                if uri.starts_with("data:") {
-                    continue;
-                }
-                let reference = super::reference::percent_decode(uri).ok_or_else(|| {
-                    MeshError::invalid(input, format!("image URI '{uri}' has a malformed %-escape"))
-                })?;
-                references.push((input.to_owned(), reference));
-            }
-        }
-        (_, Format::Gltf | Format::Glb) => {
-            // A fresh document: the images are the MTL textures the materials name.
-            for look in scene.materials.iter().filter_map(|m| m.mtl.as_ref()) {
-                let maps = [&look.diffuse_map, &look.normal_map, &look.emissive_map];
-                for map in maps.into_iter().flatten() {
-                    references.push((input.to_owned(), map.clone()));
-                }
-            }
-        }
-        _ => {}
-    }
+    let references = references(input, scene, format, &root);
     let (from_lexical, mut seen) = (lexical(&from), Vec::<PathBuf>::new());
     for (asset, reference) in references {
         let source = match resolve(&asset, &reference, &root) {
