@@ -454,5 +454,26 @@ fn the_files_an_output_refers_to_are_copied_beside_it() {
     );
     let written = std::fs::read_to_string(output.join("sub/a.obj")).unwrap();
     assert!(written.contains("mtllib a.mtl\n") && written.contains("usemtl leaf\n"));
+    // Files that share a library and a texture, two jobs at once: each copy is whole.
+    let texture: Vec<u8> = (0..4u32 << 20).map(|i| (i % 251) as u8).collect();
+    std::fs::write(input.join("sub/tex/leaf.png"), &texture).unwrap();
+    for name in ["b", "c", "d", "e"] {
+        let obj = format!("mtllib a.mtl\nusemtl leaf\n{QUADS}");
+        std::fs::write(input.join(format!("sub/{name}.obj")), obj).unwrap();
+    }
+    std::fs::remove_dir_all(&output).unwrap();
+    let out = optimize(&input, &output, &["--size", "0x0", "--jobs", "2", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(lines(&out).len(), 5);
+    assert_eq!(
+        std::fs::read(output.join("sub/tex/leaf.png")).unwrap(),
+        texture
+    );
+    let left: Vec<_> = std::fs::read_dir(output.join("sub/tex")).unwrap().collect();
+    assert_eq!(left.len(), 1, "no temporary copy left behind");
     std::fs::remove_dir_all(&dir).ok();
 }

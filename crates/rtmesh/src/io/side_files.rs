@@ -202,13 +202,29 @@ pub fn copy_side_files(
                 if let Some(parent) = destination.parent() {
                     std::fs::create_dir_all(parent).map_err(|e| MeshError::io(parent, e))?;
                 }
-                std::fs::write(&destination, &bytes)
-                    .map_err(|e| MeshError::io(&destination, e))?;
+                write_whole(&destination, &bytes)?;
             }
         }
         report.copied.push(destination);
     }
     Ok(report)
+}
+
+/// Write `bytes` to `destination` through a temporary file beside it, renamed into
+/// place: batch jobs that share a texture copy it at the same time, and none may see
+/// another's half-written copy (it would read as a different file in the way).
+fn write_whole(destination: &Path, bytes: &[u8]) -> Result<(), MeshError> {
+    static COPIES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let copy = COPIES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let mut name = destination.as_os_str().to_owned();
+    name.push(format!(".rtmesh-{}-{copy}.tmp", std::process::id()));
+    let temporary = PathBuf::from(name);
+    std::fs::write(&temporary, bytes)
+        .and_then(|()| std::fs::rename(&temporary, destination))
+        .map_err(|e| {
+            let _ = std::fs::remove_file(&temporary);
+            MeshError::io(destination, e)
+        })
 }
 
 #[cfg(test)]
