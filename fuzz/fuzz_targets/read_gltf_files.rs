@@ -1,7 +1,9 @@
 //! Fuzz the glTF reader as it reads files: the input is written as `asset/fuzz.gltf`
 //! beside a `asset/buffer.bin` and a canary outside the folder, then read by path, so
 //! that buffer URIs resolve on the file system by the rule for references. Any bytes
-//! must give a scene or an error, never a panic, and never the canary's bytes.
+//! must give a scene or an error, never a panic, and never the canary's bytes. A scene
+//! read is written as GLB into `out/` beside the folder with its image files copied
+//! (`copy_side_files`), and the canary is never among the copies.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use std::path::PathBuf;
@@ -31,9 +33,30 @@ fuzz_target!(|data: &[u8]| {
     if let Ok(scene) = rtmesh::io::read(&path) {
         let canary = 1e30f32;
         assert!(
-            scene.meshes.iter().flat_map(|m| &m.positions).all(|p| p.x != canary),
+            scene
+                .meshes
+                .iter()
+                .flat_map(|m| &m.positions)
+                .all(|p| p.x != canary),
             "the canary outside the asset's folder was read"
         );
         let _ = rtmesh::mesh::MeshInfo::of(&scene);
+        let out = folder().parent().unwrap().join("out");
+        let _ = std::fs::remove_dir_all(&out);
+        std::fs::create_dir_all(&out).unwrap();
+        let output = out.join("fuzz.glb");
+        let options = rtmesh::io::ReadOptions::default();
+        if let Ok(copies) = rtmesh::io::copy_side_files(&path, &scene, &output, &options) {
+            for copy in &copies.copied {
+                assert!(copy.starts_with(&out), "{copies:?}");
+                let bytes = std::fs::read(copy).unwrap();
+                assert_ne!(
+                    bytes,
+                    1e30f32.to_le_bytes().repeat(64),
+                    "the canary was copied"
+                );
+            }
+        }
+        let _ = rtmesh::io::write(&scene, &output);
     }
 });
