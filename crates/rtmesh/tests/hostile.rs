@@ -377,3 +377,29 @@ fn mtl_colours_of_one_number_are_grey_and_of_none_or_two_are_errors() {
     }
     std::fs::remove_dir_all(root).ok();
 }
+
+/// A missing library's stand-in materials are made only for the `usemtl` names no
+/// found library defines, in either order of the `mtllib` lines (before, a missing
+/// library named after the found one replaced its cut-out `leaf` with a plain one).
+#[test]
+fn a_missing_library_never_replaces_a_found_librarys_materials() {
+    let (root, asset) = sandbox("mtl-stand-ins");
+    std::fs::write(asset.join("real.mtl"), "newmtl leaf\nd 0.5\n").unwrap();
+    let triangles = "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl leaf\nf 1 2 3\nusemtl bark\nf 1 3 2\n";
+    for libraries in [
+        "mtllib real.mtl\nmtllib gone.mtl\n",
+        "mtllib gone.mtl\nmtllib real.mtl\n",
+    ] {
+        std::fs::write(asset.join("a.obj"), format!("{libraries}{triangles}")).unwrap();
+        let scene = rtmesh::io::read(&asset.join("a.obj")).unwrap();
+        let names: Vec<&str> = scene.materials.iter().map(|m| m.name.as_str()).collect();
+        assert_eq!(
+            names.iter().filter(|&&n| n == "leaf").count(),
+            1,
+            "{names:?}"
+        );
+        assert!(names.contains(&"bark"), "{names:?}");
+        assert_eq!(scene.meshes[0].alpha_tested, [true, false], "{libraries}");
+    }
+    std::fs::remove_dir_all(root).ok();
+}

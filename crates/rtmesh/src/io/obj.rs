@@ -46,45 +46,67 @@ pub(super) fn read<R: BufRead>(
     let mut lines = CountingReader::new(&text[..], text.len() as u64, &mut ignore);
     // A material library is read by the rule for references (`reference.rs`); one that
     // breaks it is an error, a missing one is not (many files ship without it): then
-    // the `usemtl` names stand as materials of their own, so that faces keep them.
-    // Each library is read once however often `mtllib` names it, the stand-in names at
-    // most once, and the libraries together within MAX_MATERIAL_LIBRARY_BYTES: a short
-    // file that names one large library thousands of times would otherwise fill memory.
-    let refused = std::cell::RefCell::new(None);
-    let named_only: String = arguments(&text, b"usemtl")
-        .map(|name| format!("newmtl {name}\n"))
-        .collect();
-    let loaded = std::cell::RefCell::new(std::collections::HashSet::new());
-    let (library_bytes, stand_ins_loaded) =
-        (std::cell::Cell::new(0u64), std::cell::Cell::new(false));
-    let (models, materials) = tobj::load_obj_buf(&mut lines, &options, |mtl| {
-        let name = mtl.to_string_lossy();
-        if !loaded.borrow_mut().insert(name.to_string()) {
-            return Ok(Default::default());
+    // the `usemtl` names that no library found defines stand as materials of their own,
+    // so that faces keep them (and a found library's material is never replaced by a
+    // stand-in, whatever the order of the `mtllib` lines). Each library is read once
+    // however often `mtllib` names it, before tobj parses, and the libraries together
+    // within MAX_MATERIAL_LIBRARY_BYTES: a short file that names one large library
+    // thousands of times would otherwise fill memory.
+    type Library = Option<std::rc::Rc<[u8]>>;
+    let libraries = std::cell::RefCell::new(HashMap::<String, Library>::new());
+    let library_bytes = std::cell::Cell::new(0u64);
+    let fetch = |name: &str| -> Result<Library, MeshError> {
+        if let Some(cached) = libraries.borrow().get(name) {
+            return Ok(cached.clone());
         }
-        match super::reference::read_referenced(path, &name, root) {
-            Ok(Some(bytes)) => {
+        let bytes = match super::reference::read_referenced(path, name, root)? {
+            Some(bytes) => {
                 library_bytes.set(library_bytes.get() + bytes.len() as u64);
                 if library_bytes.get() > MAX_MATERIAL_LIBRARY_BYTES {
-                    refused.borrow_mut().get_or_insert(MeshError::invalid(
+                    return Err(MeshError::invalid(
                         path,
                         format!(
                             "its material libraries hold over {MAX_MATERIAL_LIBRARY_BYTES} bytes together (at '{name}')"
                         ),
                     ));
-                    return Err(tobj::LoadError::OpenFileFailed);
                 }
-                let bytes = match colours_as_triples(&bytes) {
-                    Ok(bytes) => bytes,
-                    Err((line, message)) => {
-                        let library = super::reference::asset_folder(path).join(&*name);
-                        let message = format!("{message} (a material library of {})", path.display());
-                        refused
-                            .borrow_mut()
-                            .get_or_insert(MeshError::at_line(&library, line, message));
-                        return Err(tobj::LoadError::MaterialParseError);
-                    }
-                };
+                let bytes = colours_as_triples(&bytes).map_err(|(line, message)| {
+                    let library = super::reference::asset_folder(path).join(name);
+                    let message = format!("{message} (a material library of {})", path.display());
+                    MeshError::at_line(&library, line, message)
+                })?;
+                Some(std::rc::Rc::from(bytes))
+            }
+            None => None,
+        };
+        libraries
+            .borrow_mut()
+            .insert(name.to_owned(), bytes.clone());
+        Ok(bytes)
+    };
+    let mut defined = std::collections::HashSet::new();
+    let mut named = std::collections::HashSet::new();
+    for name in arguments(&text, b"mtllib").filter(|name| named.insert(name.clone())) {
+        if let Some(bytes) = fetch(&name)? {
+            defined.extend(arguments(&bytes, b"newmtl"));
+        }
+    }
+    let mut stand_ins = String::new();
+    for name in arguments(&text, b"usemtl") {
+        if defined.insert(name.clone()) {
+            stand_ins.push_str(&format!("newmtl {name}\n"));
+        }
+    }
+    let refused = std::cell::RefCell::new(None);
+    let loaded = std::cell::RefCell::new(std::collections::HashSet::new());
+    let stand_ins_loaded = std::cell::Cell::new(false);
+    let (models, materials) = tobj::load_obj_buf(&mut lines, &options, |mtl| {
+        let name = mtl.to_string_lossy();
+        if !loaded.borrow_mut().insert(name.to_string()) {
+            return Ok(Default::default());
+        }
+        match fetch(&name) {
+            Ok(Some(bytes)) => {
                 let (mut materials, names) = tobj::load_mtl_buf(&mut &bytes[..])?;
                 for material in &mut materials {
                     relative_to_obj(material, &name);
@@ -92,7 +114,7 @@ pub(super) fn read<R: BufRead>(
                 Ok((materials, names))
             }
             Ok(None) if stand_ins_loaded.replace(true) => Ok(Default::default()),
-            Ok(None) => tobj::load_mtl_buf(&mut named_only.as_bytes()),
+            Ok(None) => tobj::load_mtl_buf(&mut stand_ins.as_bytes()),
             Err(error) => {
                 refused.borrow_mut().get_or_insert(error);
                 Err(tobj::LoadError::OpenFileFailed)
