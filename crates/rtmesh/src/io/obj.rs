@@ -223,53 +223,61 @@ const COLOURS: [&str; 4] = ["Ka", "Kd", "Ks", "Ke"];
 /// An MTL library with every colour given as one number written as three: the MTL
 /// specification lets `Kd r` stand for `Kd r r r`, and tobj 4.0.5 panics on fewer than
 /// three. A colour with no number or two is an error at its line (1-based).
-fn colours_as_triples(library: &[u8]) -> Result<std::borrow::Cow<'_, [u8]>, (usize, String)> {
-    let mut out: Option<Vec<u8>> = None;
-    let mut start = 0;
+fn colours_as_triples(library: &[u8]) -> Result<Vec<u8>, (usize, String)> {
+    let mut out = Vec::with_capacity(library.len());
     for (n, line) in library.split(|&b| b == b'\n').enumerate() {
-        let end = start + line.len();
+        if n > 0 {
+            out.push(b'\n');
+        }
         let text = String::from_utf8_lossy(line);
         let mut words = text.split_whitespace();
-        if let Some(keyword) = words.next().filter(|k| COLOURS.contains(k)) {
-            let numbers: Vec<&str> = words.collect();
-            match numbers.len() {
-                1 => {
-                    let copy = out.get_or_insert_with(|| library[..start].to_vec());
-                    let r = numbers[0];
-                    copy.extend_from_slice(format!("{keyword} {r} {r} {r}").as_bytes());
-                }
-                0 | 2 => {
-                    return Err((
-                        n + 1,
-                        format!(
-                            "'{keyword}' needs one number (grey) or three (r g b), not {}",
-                            numbers.len()
-                        ),
-                    ))
-                }
-                _ => {
-                    if let Some(copy) = &mut out {
-                        copy.extend_from_slice(line);
-                    }
-                }
+        let Some(keyword) = words.next().filter(|k| COLOURS.contains(k)) else {
+            out.extend_from_slice(line);
+            continue;
+        };
+        match words.collect::<Vec<_>>()[..] {
+            [r] => out.extend_from_slice(format!("{keyword} {r} {r} {r}").as_bytes()),
+            ref numbers @ ([] | [_, _]) => {
+                let message = format!(
+                    "'{keyword}' needs one number (grey) or three (r g b), not {}",
+                    numbers.len()
+                );
+                return Err((n + 1, message));
             }
-        } else if let Some(copy) = &mut out {
-            copy.extend_from_slice(line);
+            _ => out.extend_from_slice(line),
         }
-        if let Some(copy) = &mut out {
-            if end < library.len() {
-                copy.push(b'\n');
-            }
-        }
-        start = end + 1;
     }
-    Ok(out.map_or(std::borrow::Cow::Borrowed(library), std::borrow::Cow::Owned))
+    Ok(out)
 }
 
 /// The file a texture statement's argument names: its last word (options such as
 /// `-s 1 1 1` come before it).
-pub(super) fn texture_file(argument: &str) -> Option<&str> {
+fn texture_file(argument: &str) -> Option<&str> {
     argument.split_whitespace().last()
+}
+
+/// MTL statements whose last argument is a texture file.
+fn is_texture_statement(keyword: &str) -> bool {
+    keyword.starts_with("map_") || matches!(keyword, "bump" | "disp" | "decal" | "refl" | "norm")
+}
+
+/// The texture files an MTL library names, each once: the last argument of every map
+/// statement (the options such as `-s 1 1 1` come before it).
+pub(super) fn mtl_textures(library: &[u8]) -> Vec<String> {
+    let text = String::from_utf8_lossy(library);
+    let mut names: Vec<String> = Vec::new();
+    for line in text.lines() {
+        let line = line.trim();
+        let (keyword, argument) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
+        if is_texture_statement(keyword) {
+            if let Some(name) = texture_file(argument) {
+                if !names.iter().any(|n| n == name) {
+                    names.push(name.to_owned());
+                }
+            }
+        }
+    }
+    names
 }
 
 /// The texture statements tobj keeps by name that glTF has a place for.
@@ -621,4 +629,16 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
         normal_base += normal.map_or(0, |n| n.1);
     }
     out.flush()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_texture_is_the_last_argument_of_each_map_statement() {
+        let library = b"newmtl a\nKd 1 0 0\nmap_Kd -s 1 1 1 tex/a.png\nbump -bm 0.5 n.png\n\
+                        map_Ks tex/a.png\nrefl -type sphere env.jpg\nmap_d\nnewmtl b\n";
+        assert_eq!(mtl_textures(library), ["tex/a.png", "n.png", "env.jpg"]);
+    }
 }

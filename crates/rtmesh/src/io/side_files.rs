@@ -46,45 +46,55 @@ pub struct SideFiles {
     pub refused: Vec<String>,
 }
 
-/// MTL statements whose last argument is a texture file.
-fn is_texture_statement(keyword: &str) -> bool {
-    keyword.starts_with("map_") || matches!(keyword, "bump" | "disp" | "decal" | "refl" | "norm")
+/// One file a written mesh refers to.
+struct Reference {
+    /// The file the reference is relative to.
+    asset: PathBuf,
+    /// The reference, as written (percent-decoded).
+    name: String,
+    /// Its bytes, where they were read already (a material library, read for its
+    /// textures' names).
+    bytes: Option<Vec<u8>>,
 }
 
-/// The texture files an MTL library names, each once: the last argument of every map
-/// statement (the options such as `-s 1 1 1` come before it).
-fn mtl_textures(library: &[u8]) -> Vec<String> {
-    let text = String::from_utf8_lossy(library);
-    let mut names: Vec<String> = Vec::new();
-    for line in text.lines() {
-        let line = line.trim();
-        let (keyword, argument) = line.split_once(char::is_whitespace).unwrap_or((line, ""));
-        if is_texture_statement(keyword) {
-            if let Some(name) = super::obj::texture_file(argument) {
-                if !names.iter().any(|n| n == name) {
-                    names.push(name.to_owned());
-                }
-            }
+impl Reference {
+    fn new(asset: &Path, name: String) -> Self {
+        Self {
+            asset: asset.to_owned(),
+            name,
+            bytes: None,
         }
     }
-    names
+
+    /// Its bytes by the rule for references; `Ok(None)` when there is no such file.
+    fn read(&mut self, root: &Path) -> Result<Option<Vec<u8>>, MeshError> {
+        match self.bytes.take() {
+            Some(bytes) => Ok(Some(bytes)),
+            None => read_referenced(&self.asset, &self.name, root),
+        }
+    }
 }
 
 /// The files a copy of `scene`, read from `input`, refers to when written as `format`
-/// and does not write itself: (the file the reference is relative to, the reference).
-fn references(input: &Path, scene: &Scene, format: Format, root: &Path) -> Vec<(PathBuf, String)> {
-    let mut references: Vec<(PathBuf, String)> = Vec::new();
+/// and does not write itself.
+fn references(input: &Path, scene: &Scene, format: Format, root: &Path) -> Vec<Reference> {
+    let mut references: Vec<Reference> = Vec::new();
     match (scene.document.as_deref(), format) {
         (Some(Document::Obj { material_libraries }), Format::Obj) => {
             for library in material_libraries {
-                if references.iter().any(|(_, r)| r == library) {
+                if references.iter().any(|r| &r.name == library) {
                     continue;
                 }
-                references.push((input.to_owned(), library.clone()));
+                let mut reference = Reference::new(input, library.clone());
                 // Texture names are relative to the library's folder.
                 let path = resolve(input, library, root);
-                if let (Ok(path), Ok(Some(bytes))) = (path, read_referenced(input, library, root)) {
-                    references.extend(mtl_textures(&bytes).into_iter().map(|t| (path.clone(), t)));
+                if let (Ok(path), Ok(Some(bytes))) = (path, reference.read(root)) {
+                    let textures = super::obj::mtl_textures(&bytes);
+                    reference.bytes = Some(bytes);
+                    references.push(reference);
+                    references.extend(textures.into_iter().map(|t| Reference::new(&path, t)));
+                } else {
+                    references.push(reference);
                 }
             }
         }
@@ -97,16 +107,14 @@ fn references(input: &Path, scene: &Scene, format: Format, root: &Path) -> Vec<(
             for uri in uris.filter(|uri| !uri.starts_with("data:")) {
                 // A malformed %-escape stands as written (and names no file).
                 let reference = super::reference::percent_decode(uri).unwrap_or_else(|| uri.into());
-                references.push((input.to_owned(), reference));
+                references.push(Reference::new(input, reference));
             }
         }
         (_, Format::Gltf | Format::Glb) => {
             // A fresh document: the images are the MTL textures the materials name.
             for look in scene.materials.iter().filter_map(|m| m.mtl.as_ref()) {
-                let maps = [&look.diffuse_map, &look.normal_map, &look.emissive_map];
-                for map in maps.into_iter().flatten() {
-                    references.push((input.to_owned(), map.clone()));
-                }
+                let maps = look.texture_files().cloned();
+                references.extend(maps.map(|map| Reference::new(input, map)));
             }
         }
         _ => {}
@@ -126,11 +134,11 @@ pub fn check_side_files(input: &Path, scene: &Scene, options: &ReadOptions) -> S
         .asset_root
         .clone()
         .unwrap_or_else(|| asset_folder(input));
-    for (asset, reference) in references(input, scene, format, &root) {
-        match super::reference::check_referenced(&asset, &reference, &root) {
+    for Reference { asset, name, .. } in references(input, scene, format, &root) {
+        match super::reference::check_referenced(&asset, &name, &root) {
             Ok(Some((real, _))) if report.present.contains(&real) => {}
             Ok(Some((real, _))) => report.present.push(real),
-            Ok(None) => report.missing.push(reference),
+            Ok(None) => report.missing.push(name),
             Err(why) => report.refused.push(why.to_string()),
         }
     }
@@ -150,14 +158,14 @@ pub fn copy_side_files(
     let mut report = SideFiles::default();
     let (from, to) = (asset_folder(input), asset_folder(output));
     let format = Format::from_path(output)?;
-    if lexical(&from) == lexical(&to) {
+    let from_lexical = lexical(&from);
+    if from_lexical == lexical(&to) {
         return Ok(report);
     }
     let root = options.asset_root.clone().unwrap_or_else(|| from.clone());
-    let references = references(input, scene, format, &root);
-    let (from_lexical, mut seen) = (lexical(&from), Vec::<PathBuf>::new());
-    for (asset, reference) in references {
-        let source = match resolve(&asset, &reference, &root) {
+    let mut seen = Vec::<PathBuf>::new();
+    for mut reference in references(input, scene, format, &root) {
+        let source = match resolve(&reference.asset, &reference.name, &root) {
             Ok(source) => source,
             Err(why) => {
                 report.refused.push(why.to_string());
@@ -168,17 +176,17 @@ pub fn copy_side_files(
             .zip(from_lexical.as_ref())
             .and_then(|(source, from)| source.strip_prefix(from).ok().map(Path::to_owned));
         let Some(relative) = relative else {
-            report.outside.push(reference);
+            report.outside.push(reference.name);
             continue;
         };
         if seen.contains(&relative) {
             continue;
         }
         seen.push(relative.clone());
-        let bytes = match read_referenced(&asset, &reference, &root) {
+        let bytes = match reference.read(&root) {
             Ok(Some(bytes)) => bytes,
             Ok(None) => {
-                report.missing.push(reference);
+                report.missing.push(reference.name);
                 continue;
             }
             Err(why) => {
@@ -193,8 +201,9 @@ pub fn copy_side_files(
                 return Err(MeshError::invalid(
                     &destination,
                     format!(
-                        "exists and differs from {}, which the output refers to as '{reference}': remove it or write the output to another folder",
-                        source.display()
+                        "exists and differs from {}, which the output refers to as '{}': remove it or write the output to another folder",
+                        source.display(),
+                        reference.name
                     ),
                 ))
             }
@@ -225,16 +234,4 @@ fn write_whole(destination: &Path, bytes: &[u8]) -> Result<(), MeshError> {
             let _ = std::fs::remove_file(&temporary);
             MeshError::io(destination, e)
         })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_texture_is_the_last_argument_of_each_map_statement() {
-        let library = b"newmtl a\nKd 1 0 0\nmap_Kd -s 1 1 1 tex/a.png\nbump -bm 0.5 n.png\n\
-                        map_Ks tex/a.png\nrefl -type sphere env.jpg\nmap_d\nnewmtl b\n";
-        assert_eq!(mtl_textures(library), ["tex/a.png", "n.png", "env.jpg"]);
-    }
 }

@@ -85,6 +85,15 @@ pub struct MtlLook {
     pub dissolve_map: bool,
 }
 
+impl MtlLook {
+    /// The texture files it names: the diffuse, normal and emissive maps.
+    pub fn texture_files(&self) -> impl Iterator<Item = &String> {
+        [&self.diffuse_map, &self.normal_map, &self.emissive_map]
+            .into_iter()
+            .flatten()
+    }
+}
+
 /// One triangle geometry: shared vertices, indexed triangles and per-triangle attributes.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriMesh {
