@@ -2,8 +2,10 @@
 //! beside a `asset/buffer.bin` and a canary outside the folder, then read by path, so
 //! that buffer URIs resolve on the file system by the rule for references. Any bytes
 //! must give a scene or an error, never a panic, and never the canary's bytes. A scene
-//! read is written as GLB into `out/` beside the folder with its image files copied
-//! (`copy_side_files`), and the canary is never among the copies.
+//! read is written as GLB and as OBJ (its materials as an MTL library, stored images
+//! extracted beside it) into `out/` beside the folder with its image files copied
+//! (`copy_side_files`); the canary is never among the copies, and nothing is written
+//! outside `out/`.
 #![no_main]
 use libfuzzer_sys::fuzz_target;
 use std::path::PathBuf;
@@ -44,19 +46,23 @@ fuzz_target!(|data: &[u8]| {
         let out = folder().parent().unwrap().join("out");
         let _ = std::fs::remove_dir_all(&out);
         std::fs::create_dir_all(&out).unwrap();
-        let output = out.join("fuzz.glb");
         let options = rtmesh::io::ReadOptions::default();
-        if let Ok(copies) = rtmesh::io::copy_side_files(&path, &scene, &output, &options) {
-            for copy in &copies.copied {
-                assert!(copy.starts_with(&out), "{copies:?}");
-                let bytes = std::fs::read(copy).unwrap();
-                assert_ne!(
-                    bytes,
-                    1e30f32.to_le_bytes().repeat(64),
-                    "the canary was copied"
-                );
+        for output in [out.join("fuzz.glb"), out.join("fuzz.obj")] {
+            if let Ok(copies) = rtmesh::io::copy_side_files(&path, &scene, &output, &options) {
+                for copy in &copies.copied {
+                    assert!(copy.starts_with(&out), "{copies:?}");
+                    let bytes = std::fs::read(copy).unwrap();
+                    assert_ne!(
+                        bytes,
+                        1e30f32.to_le_bytes().repeat(64),
+                        "the canary was copied"
+                    );
+                }
+            }
+            if let Ok(notes) = rtmesh::io::write(&scene, &output) {
+                let beside = &notes.written_beside;
+                assert!(beside.iter().all(|f| f.starts_with(&out)), "{beside:?}");
             }
         }
-        let _ = rtmesh::io::write(&scene, &output);
     }
 });

@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Result};
 use indicatif::{ProgressBar, ProgressStyle};
-use rtmesh::io::SideFiles;
+use rtmesh::io::{SideFiles, WriteNotes};
 use serde::Serialize;
 use std::path::Path;
 
@@ -119,7 +119,11 @@ pub fn refuse_overwriting_input(input: &str, scene: &rtmesh::Scene, output: &Pat
 /// Write `scene`, read from `input`, to `path`; say on standard error what the format
 /// could not hold. The files the output refers to are copied beside it first
 /// ([`copy_side_files`]).
-pub fn write_mesh(input: &str, scene: &rtmesh::Scene, path: &Path) -> Result<SideFiles> {
+pub fn write_mesh(
+    input: &str,
+    scene: &rtmesh::Scene,
+    path: &Path,
+) -> Result<(SideFiles, WriteNotes)> {
     // First, so that a side file in the way stops the write before anything is written.
     let copies = copy_side_files(input, scene, path)?;
     let notes = rtmesh::io::write(scene, path)?;
@@ -144,7 +148,14 @@ pub fn write_mesh(input: &str, scene: &rtmesh::Scene, path: &Path) -> Result<Sid
             notes.weights_renormalized
         );
     }
-    Ok(copies)
+    if !notes.not_held.is_empty() {
+        eprintln!(
+            "note: {} cannot hold, so goes without: {} (write .gltf or .glb to keep them)",
+            path.display(),
+            notes.not_held.join("; ")
+        );
+    }
+    Ok((copies, notes))
 }
 
 /// Copy the files that `output`, written from `scene` read from `input`, refers to and

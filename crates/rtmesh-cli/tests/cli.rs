@@ -72,6 +72,29 @@ fn convert_writes_a_mesh_that_reads_back() {
 }
 
 #[test]
+fn convert_names_what_the_format_cannot_hold_and_writes_an_obj_its_materials() {
+    let dir = std::env::temp_dir().join(format!("rtmesh-cli-not-held-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    json_of(&["convert", "builtin:room", &path("room.glb"), "--json"]);
+    let obj = json_of(&["convert", &path("room.glb"), &path("room.obj"), "--json"]);
+    assert_eq!(obj["written_beside"], serde_json::json!([path("room.mtl")]));
+    assert_eq!(obj["not_held"], serde_json::json!([]));
+    let info = json_of(&["info", &path("room.obj"), "--json"]);
+    assert_eq!(info["side_files"]["present"].as_array().unwrap().len(), 1);
+    assert!(info["side_files"]["missing"].as_array().unwrap().is_empty());
+    let out = rtmesh(&["convert", &path("room.glb"), &path("room.stl")]);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("room.stl cannot hold, so goes without: materials: 1"),
+        "{stderr}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn demo_optimizes_the_built_in_scenes_and_writes_the_reports() {
     let dir = std::env::temp_dir().join(format!("rtmesh-cli-demo-{}", std::process::id()));
     let out = rtmesh(&["demo", "-o", dir.to_str().unwrap(), "--json"]);

@@ -111,6 +111,8 @@ fn info_convert_pair_lint_repair_keys() {
             "vertices",
             "merged_vertices",
             "side_files",
+            "written_beside",
+            "not_held",
         ],
     );
     assert_keys(
@@ -278,6 +280,7 @@ fn trace_render_demo_keys() {
             "report",
             "pairs_file",
             "side_files",
+            "not_held",
             "ok",
             "error",
             "seconds",

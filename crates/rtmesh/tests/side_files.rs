@@ -182,6 +182,23 @@ fn a_library_above_the_input_folder_is_reported_not_copied_out_of_the_output_fol
 }
 
 /// The glTF document of a .gltf file.
+/// The first geometry's texture coordinates, corner by corner.
+fn corner_uvs(scene: &rtmesh::Scene) -> Vec<[f32; 2]> {
+    let mesh = &scene.meshes[0];
+    let stream = mesh
+        .attributes
+        .iter()
+        .find(|a| a.name == "TEXCOORD_0")
+        .unwrap();
+    let rtmesh::mesh::AttributeValues::F32(values) = &stream.values else {
+        panic!("float coordinates")
+    };
+    let corners = mesh.triangles.iter().flatten();
+    corners
+        .map(|&v| [values[2 * v as usize], values[2 * v as usize + 1]])
+        .collect()
+}
+
 fn document(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
 }
@@ -253,20 +270,192 @@ fn an_obj_written_as_gltf_keeps_its_mtl_colours_and_textures() {
     // The coordinates themselves are written as read: the texture takes the flip.
     let back = rtmesh::io::read(&out.join("a.gltf")).unwrap();
     let before = rtmesh::io::read(&input.join("a.obj")).unwrap();
-    let uv = |scene: &rtmesh::Scene| -> Vec<[f32; 2]> {
-        let mesh = &scene.meshes[0];
-        let stream = mesh
-            .attributes
+    assert_eq!(corner_uvs(&back), corner_uvs(&before));
+}
+
+/// A hand-made glTF: a quad of two primitives on one buffer file, an image stored in
+/// the buffer and one stored as a file, two materials between them.
+fn gltf_with_materials(input: &Path) {
+    let mut bin = Vec::new();
+    for p in [
+        [0.0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+    ] {
+        bin.extend(p.iter().flat_map(|x| x.to_le_bytes()));
+    }
+    for uv in [[0.25f32, 0.5], [1.0, 0.125], [0.0, 1.0], [0.75, 0.375]] {
+        bin.extend(uv.iter().flat_map(|x| x.to_le_bytes()));
+    }
+    for i in [0u16, 1, 2, 1, 3, 2] {
+        bin.extend(i.to_le_bytes());
+    }
+    bin.extend(PNG);
+    std::fs::write(input.join("a.bin"), &bin).unwrap();
+    std::fs::write(input.join("tex/n.png"), [7u8]).unwrap();
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "extensionsUsed": ["KHR_texture_transform", "KHR_materials_emissive_strength"],
+        "buffers": [{"uri": "a.bin", "byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
+            {"buffer": 0, "byteOffset": 48, "byteLength": 32},
+            {"buffer": 0, "byteOffset": 80, "byteLength": 12},
+            {"buffer": 0, "byteOffset": 92, "byteLength": 8}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC2"},
+            {"bufferView": 2, "componentType": 5123, "count": 3, "type": "SCALAR"},
+            {"bufferView": 2, "byteOffset": 6, "componentType": 5123, "count": 3, "type": "SCALAR"}
+        ],
+        "images": [{"bufferView": 3, "mimeType": "image/png"}, {"uri": "tex/n.png"}],
+        "textures": [{"source": 0}, {"source": 1}],
+        "materials": [
+            {"name": "painted metal", "alphaMode": "MASK", "alphaCutoff": 0.25,
+             "pbrMetallicRoughness": {
+                "baseColorFactor": [1, 1, 1, 0.5],
+                "baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform":
+                    {"offset": [0.5, 0.25], "scale": [2, 4]}}},
+                "metallicFactor": 0.75, "roughnessFactor": 0.25,
+                "metallicRoughnessTexture": {"index": 1}},
+             "normalTexture": {"index": 1, "scale": 0.5},
+             "occlusionTexture": {"index": 1},
+             "emissiveFactor": [0.5, 0, 0],
+             "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 2}}},
+            {"alphaMode": "BLEND", "pbrMetallicRoughness": {"baseColorFactor": [0.25, 0.5, 0.75, 0.5]}}
+        ],
+        "meshes": [{"primitives": [
+            {"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 2, "material": 0},
+            {"attributes": {"POSITION": 0, "TEXCOORD_0": 1}, "indices": 3, "material": 1}
+        ]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0
+    });
+    std::fs::write(input.join("a.gltf"), gltf.to_string()).unwrap();
+}
+
+const PNG: [u8; 8] = [137, 80, 78, 71, 13, 10, 26, 10];
+
+#[test]
+fn a_gltf_written_as_obj_gets_its_materials_as_an_mtl_library() {
+    let (input, out) = sandbox("gltf-to-obj");
+    gltf_with_materials(&input);
+    let options = ReadOptions::default();
+    let scene = rtmesh::io::read_with(&input.join("a.gltf"), &options, &mut |_, _| {}).unwrap();
+    let copies = copy_side_files(&input.join("a.gltf"), &scene, &out.join("a.obj"), &options);
+    assert_eq!(copies.unwrap().copied, [out.join("tex/n.png")]);
+    let notes = rtmesh::io::write(&scene, &out.join("a.obj")).unwrap();
+    assert_eq!(
+        notes.written_beside,
+        [out.join("a.mtl"), out.join("a_image0.png")]
+    );
+    assert_eq!(
+        notes.not_held,
+        [
+            "material 'painted_metal': its occlusion texture",
+            "material 'painted_metal': its alphaCutoff"
+        ]
+    );
+    // glTF's (offset, scale) (0.5, 0.25), (2, 4) from the top-left corner is MTL's
+    // uv·(2, −4) + (0.5, 0.75) from the bottom-left; untransformed maps take the flip.
+    let flip = "-s 1 -1 1 -o 0 1 0";
+    let expected = format!(
+        "# written by rtmesh {} from a glTF document's materials\n\n\
+         newmtl painted_metal\nKd 1 1 1\nd 0.5\nPm 0.75\nPr 0.25\nKe 1 0 0\n\
+         map_Kd -s 2 -4 1 -o 0.5 0.75 0 a_image0.png\n\
+         map_d -s 2 -4 1 -o 0.5 0.75 0 a_image0.png\n\
+         map_Pm -imfchan b {flip} tex/n.png\nmap_Pr -imfchan g {flip} tex/n.png\n\
+         norm -bm 0.5 {flip} tex/n.png\n\n\
+         newmtl material1\nKd 0.25 0.5 0.75\nd 0.5\nPm 1\nPr 1\n\n\
+         newmtl material2\nKd 1 1 1\nd 1\nPm 1\nPr 1\n",
+        env!("CARGO_PKG_VERSION")
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("a.mtl")).unwrap(),
+        expected
+    );
+    assert_eq!(std::fs::read(out.join("a_image0.png")).unwrap(), PNG);
+    let obj = std::fs::read_to_string(out.join("a.obj")).unwrap();
+    assert!(obj.contains("mtllib a.mtl\n"));
+    assert_eq!(
+        obj.lines()
+            .filter(|l| l.starts_with("usemtl"))
+            .collect::<Vec<_>>(),
+        ["usemtl painted_metal", "usemtl material1"]
+    );
+
+    // Back to glTF: the same look, and each corner samples the same place of the image
+    // (the same coordinates under the same transform).
+    let back = rtmesh::io::read(&out.join("a.obj")).unwrap();
+    assert_eq!(corner_uvs(&back), corner_uvs(&scene));
+    assert_eq!(
+        back.materials
             .iter()
-            .find(|a| a.name == "TEXCOORD_0")
-            .unwrap();
-        let rtmesh::mesh::AttributeValues::F32(values) = &stream.values else {
-            panic!("float coordinates")
-        };
-        let corners = mesh.triangles.iter().flatten();
-        corners
-            .map(|&v| [values[2 * v as usize], values[2 * v as usize + 1]])
-            .collect()
+            .map(|m| m.alpha_tested)
+            .collect::<Vec<_>>(),
+        [true, true, false]
+    );
+    rtmesh::io::write(&back, &out.join("b.gltf")).unwrap();
+    let gltf = document(&out.join("b.gltf"));
+    let painted = &gltf["materials"][0];
+    let pbr = &painted["pbrMetallicRoughness"];
+    assert_eq!(
+        pbr["baseColorTexture"]["extensions"],
+        serde_json::json!({"KHR_texture_transform": {"offset": [0.5, 0.25], "scale": [2.0, 4.0]}})
+    );
+    assert!(pbr["metallicRoughnessTexture"].get("extensions").is_none());
+    assert_eq!(pbr["metallicFactor"], 0.75);
+    assert_eq!(pbr["roughnessFactor"], 0.25);
+    assert_eq!(
+        painted["emissiveFactor"],
+        serde_json::json!([1.0, 0.0, 0.0])
+    );
+    assert_eq!(painted["alphaMode"], "MASK");
+    let image = |info: &serde_json::Value| {
+        let texture = info["index"].as_u64().unwrap() as usize;
+        let source = gltf["textures"][texture]["source"].as_u64().unwrap() as usize;
+        gltf["images"][source]["uri"].clone()
     };
-    assert_eq!(uv(&back), uv(&before));
+    assert_eq!(image(&pbr["baseColorTexture"]), "a_image0.png");
+    assert_eq!(image(&painted["normalTexture"]), "tex/n.png");
+    assert_eq!(
+        gltf["materials"][1]["pbrMetallicRoughness"]["baseColorFactor"],
+        serde_json::json!([0.25, 0.5, 0.75, 0.5])
+    );
+}
+
+#[test]
+fn a_different_library_in_the_way_stops_the_obj_before_it_is_written() {
+    let (input, out) = sandbox("gltf-to-obj-in-the-way");
+    gltf_with_materials(&input);
+    std::fs::write(out.join("a.mtl"), "newmtl mine\n").unwrap();
+    let scene = rtmesh::io::read(&input.join("a.gltf")).unwrap();
+    let error = rtmesh::io::write(&scene, &out.join("a.obj")).unwrap_err();
+    assert!(error.to_string().contains("exists and differs"), "{error}");
+    assert_eq!(
+        std::fs::read_to_string(out.join("a.mtl")).unwrap(),
+        "newmtl mine\n"
+    );
+    assert!(!out.join("a.obj").exists() && !out.join("a_image0.png").exists());
+}
+
+#[test]
+fn what_a_format_cannot_hold_is_named() {
+    let (input, out) = sandbox("not-held");
+    gltf_with_materials(&input);
+    let scene = rtmesh::io::read(&input.join("a.gltf")).unwrap();
+    let not_held = |file: &str| rtmesh::io::write(&scene, &out.join(file)).unwrap().not_held;
+    assert_eq!(
+        not_held("a.stl"),
+        [
+            "vertex attributes TEXCOORD_0",
+            "materials: 2 (the format holds none)"
+        ]
+    );
+    assert_eq!(not_held("a.ply"), ["materials: 2 (the format holds none)"]);
+    assert!(not_held("a.glb").is_empty());
 }

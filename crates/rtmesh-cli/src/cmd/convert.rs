@@ -8,7 +8,11 @@ use std::path::PathBuf;
 
 /// Convert between formats, keeping triangle order (format from the extension).
 ///
-/// OBJ and PLY hold one level, so instances are flattened; glTF/GLB keep them.
+/// OBJ and PLY hold one level, so instances are flattened; glTF/GLB keep them. An OBJ
+/// written from a glTF gets its materials as an MTL library beside it (STEM.mtl, with
+/// the images the glTF stored itself as STEM_imageN files); what the output format
+/// cannot hold (skins, animations, extra attributes) is named on standard error and in
+/// `--json`'s `not_held`.
 #[derive(clap::Args)]
 pub struct Args {
     /// Input mesh file, or builtin:NAME.
@@ -37,6 +41,11 @@ pub struct Report {
     merged_vertices: usize,
     /// The files the output refers to (material libraries, textures), copied beside it.
     side_files: Vec<PathBuf>,
+    /// The files written beside it for it: an OBJ's material library translated from a
+    /// glTF's materials, and the images the glTF stored itself.
+    written_beside: Vec<PathBuf>,
+    /// What the output's format cannot hold and the output goes without, in words.
+    not_held: Vec<String>,
 }
 
 /// Read, weld if asked, write.
@@ -51,16 +60,17 @@ pub fn run(args: Args) -> Result<()> {
             *mesh = result.mesh;
         }
     }
-    let side_files = write_mesh(&args.input, &scene, &args.output)
-        .with_context(|| format!("converting {}", args.input))?
-        .copied;
+    let (copies, notes) = write_mesh(&args.input, &scene, &args.output)
+        .with_context(|| format!("converting {}", args.input))?;
     let report = Report {
         input: args.input,
         output: args.output,
         triangles: scene.instanced_triangle_count(),
         vertices: scene.instanced_vertex_count(),
         merged_vertices,
-        side_files,
+        side_files: copies.copied,
+        written_beside: notes.written_beside,
+        not_held: notes.not_held,
     };
     emit(&report, args.json, |r| {
         println!(
@@ -70,6 +80,9 @@ pub fn run(args: Args) -> Result<()> {
             r.vertices,
             r.merged_vertices
         );
+        for file in &r.written_beside {
+            println!("wrote {} beside it", file.display());
+        }
         if !r.side_files.is_empty() {
             println!(
                 "copied {} files it refers to beside it (material libraries, textures)",

@@ -147,6 +147,9 @@ pub struct FileReport {
     sequences_file: Option<PathBuf>,
     /// The files the output refers to (material libraries, textures), copied beside it.
     side_files: Vec<PathBuf>,
+    /// What the output's format cannot hold and the output goes without (an output in
+    /// another format than the input), in words.
+    not_held: Vec<String>,
     ok: bool,
     error: Option<String>,
     /// Wall-clock seconds for this file, reading and writing included.
@@ -431,6 +434,7 @@ fn run_job(job: &Job, settings: &Settings, progress: &dyn Progress) -> FileRepor
         pairs_file: None,
         sequences_file: None,
         side_files: Vec::new(),
+        not_held: Vec::new(),
         ok: false,
         error: None,
         seconds: 0.0,
@@ -470,7 +474,10 @@ fn optimize_file(
     if !settings.dry_run {
         if let Some(output) = &job.output {
             create_parent(output)?;
-            report.side_files = write_mesh(&job.input, &optimized.scene, output)?.copied;
+            let (copies, notes) = write_mesh(&job.input, &optimized.scene, output)?;
+            report.side_files = copies.copied;
+            report.side_files.extend(notes.written_beside);
+            report.not_held = notes.not_held;
             report.output = Some(output.clone());
             if settings.options.target == Target::Pairs {
                 let mut name = output.clone().into_os_string();

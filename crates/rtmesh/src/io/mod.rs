@@ -22,7 +22,7 @@ pub use obj::MAX_MATERIAL_LIBRARY_BYTES;
 pub use reference::MAX_REFERENCED_BYTES;
 pub use side_files::{check_side_files, copy_side_files, SideFileCheck, SideFiles};
 
-use crate::mesh::{Scene, TriMesh};
+use crate::mesh::{Material, Scene, TriMesh};
 use std::io::{BufRead, Read};
 use std::path::{Path, PathBuf};
 
@@ -245,6 +245,14 @@ pub struct WriteNotes {
     /// Vertices whose float skin weights did not sum to one, written scaled so that
     /// they do: glTF asks for normalized weights.
     pub weights_renormalized: usize,
+    /// What the format cannot hold and the output goes without, in words (vertex
+    /// attributes by name, a glTF's skins and animations, material terms MTL has no
+    /// place for). Empty for glTF/GLB, and for a format written from itself.
+    pub not_held: Vec<String>,
+    /// The files written beside the output for it: an OBJ's material library
+    /// translated from a glTF's materials (`STEM.mtl`), and the images the glTF stored
+    /// itself, extracted for the library to name.
+    pub written_beside: Vec<PathBuf>,
 }
 
 /// Write `scene` to `path` in the format its extension names. OBJ, PLY and STL hold
@@ -264,7 +272,20 @@ pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
     match format {
         Format::Obj => {
             scene.check_flattenable().map_err(too_large)?;
-            obj::write(scene, path).map_err(io_error)?
+            let library = obj_material_library(scene, path);
+            let beside = |file: &str| path.with_file_name(file);
+            if let Some((file, library)) = &library {
+                let mut files = vec![(beside(file), library.text.clone().into_bytes())];
+                let images = library.images.iter();
+                files.extend(images.map(|(image, bytes)| (beside(image), bytes.clone())));
+                side_files::write_beside(&files, path)?;
+                notes.written_beside = files.into_iter().map(|(file, _)| file).collect();
+                notes.not_held.extend(library.not_held.iter().cloned());
+            }
+            let names = library
+                .as_ref()
+                .map(|(file, l)| (file.as_str(), &l.names[..]));
+            obj::write(scene, path, names).map_err(io_error)?
         }
         Format::Ply => ply::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
         Format::Stl => stl::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
@@ -272,7 +293,93 @@ pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
             notes = gltf::write(scene, path, format == Format::Glb).map_err(io_error)?;
         }
     }
+    notes.not_held.splice(0..0, not_held(scene, format));
     Ok(notes)
+}
+
+/// For an OBJ written from a glTF with materials: the material library translated from
+/// them ([`gltf::mtl_library`]) and its file name, `STEM.mtl` beside the output.
+fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::MtlLibrary)> {
+    let Some(Document::Gltf(document)) = scene.document.as_deref() else {
+        return None;
+    };
+    if document.root().materials.is_empty() {
+        return None;
+    }
+    let stem = path.file_stem()?.to_string_lossy();
+    // One word, so that `mtllib` and the maps name it whole.
+    let stem = stem.replace(char::is_whitespace, "_");
+    let library = gltf::mtl_library(document, scene.materials.len(), &stem);
+    Some((format!("{stem}.mtl"), library))
+}
+
+/// What `format` cannot hold of `scene`, in words: vertex attributes past what it
+/// stores, materials, and a glTF document's skins, animations and cameras.
+fn not_held(scene: &Scene, format: Format) -> Vec<String> {
+    let held: &[&str] = match format {
+        Format::Gltf | Format::Glb => return Vec::new(),
+        Format::Obj => &["NORMAL", "TEXCOORD_0", "COLOR_0"],
+        Format::Ply => return document_not_held(scene, true),
+        Format::Stl => &[],
+    };
+    let mut attributes: Vec<&str> = Vec::new();
+    let mut morph_targets = false;
+    for attribute in scene.meshes.iter().flat_map(|m| &m.attributes) {
+        let name = attribute.name.as_str();
+        if name.starts_with(crate::mesh::MORPH_PREFIX) {
+            morph_targets = true;
+        } else if !held.contains(&name) && !attributes.contains(&name) {
+            attributes.push(name);
+        }
+    }
+    let mut lost = Vec::new();
+    if !attributes.is_empty() {
+        lost.push(format!("vertex attributes {}", attributes.join(", ")));
+    }
+    if morph_targets {
+        lost.push("morph targets".to_owned());
+    }
+    if format == Format::Obj
+        && (scene.meshes.iter())
+            .filter_map(|m| m.attribute("COLOR_0"))
+            .any(|c| c.components == 4)
+    {
+        lost.push("COLOR_0's alpha".to_owned());
+    }
+    lost.extend(document_not_held(scene, format == Format::Stl));
+    lost
+}
+
+/// What a one-level format cannot hold of the document `scene` was read with:
+/// materials (where `materials` says it holds none) and a glTF's skins, animations and
+/// cameras, counted.
+fn document_not_held(scene: &Scene, materials: bool) -> Vec<String> {
+    let mut lost = Vec::new();
+    let used = |m: &Material| !m.name.is_empty() || m.mtl.is_some();
+    let from_gltf = match scene.document.as_deref() {
+        Some(Document::Gltf(document)) => Some(document.root()),
+        _ => None,
+    };
+    let material_count = match from_gltf {
+        Some(root) => root.materials.len(),
+        None => scene.materials.iter().filter(|m| used(m)).count(),
+    };
+    if materials && material_count > 0 {
+        lost.push(format!(
+            "materials: {material_count} (the format holds none)"
+        ));
+    }
+    if let Some(root) = from_gltf {
+        let counted = [
+            (root.skins.len(), "skins"),
+            (root.animations.len(), "animations"),
+            (root.cameras.len(), "cameras"),
+        ];
+        for (count, what) in counted.into_iter().filter(|(count, _)| *count > 0) {
+            lost.push(format!("{what}: {count}"));
+        }
+    }
+    lost
 }
 
 /// Write `mesh` as a binary PLY whose triangles are one `tristrips` element: the

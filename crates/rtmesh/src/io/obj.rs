@@ -17,7 +17,7 @@
 //! the libraries and their textures beside an output in another folder.
 
 use super::{CountingReader, MeshError};
-use crate::mesh::{Material, MtlLook, Scene, TriMesh, VertexAttribute};
+use crate::mesh::{Material, MtlLook, MtlMap, Scene, TriMesh, VertexAttribute};
 use glam::{Affine3A, Vec3};
 use std::collections::HashMap;
 use std::io::{BufRead, Write};
@@ -283,23 +283,27 @@ pub(super) fn mtl_textures(library: &[u8]) -> Vec<String> {
 /// The texture statements tobj keeps by name that glTF has a place for.
 const NORM: &str = "norm";
 const MAP_KE: &str = "map_Ke";
+const MAP_PM: &str = "map_Pm";
+const MAP_PR: &str = "map_Pr";
 
 /// Each texture of `material`, from the library `library` (as `mtllib` names it),
-/// named by its file alone and relative to the OBJ's folder, as [`MtlLook`] keeps them.
+/// with its file relative to the OBJ's folder, as [`MtlLook`] keeps them; the options
+/// before it stay.
 fn relative_to_obj(material: &mut tobj::Material, library: &str) {
-    let folder = Path::new(library)
+    let Some(folder) = Path::new(library)
         .parent()
-        .filter(|p| !p.as_os_str().is_empty());
+        .filter(|p| !p.as_os_str().is_empty())
+    else {
+        return;
+    };
     let relative = |argument: &mut String| {
         if let Some(file) = texture_file(argument) {
-            *argument = folder.map_or_else(
-                || file.to_owned(),
-                |folder| format!("{}/{file}", folder.to_string_lossy()),
-            );
+            let options = argument[..argument.len() - file.len()].to_owned();
+            *argument = format!("{options}{}/{file}", folder.to_string_lossy());
         }
     };
     let kept = (material.unknown_param.iter_mut())
-        .filter(|(key, _)| [NORM, MAP_KE].contains(&key.as_str()))
+        .filter(|(key, _)| [NORM, MAP_KE, MAP_PM, MAP_PR].contains(&key.as_str()))
         .map(|(_, value)| value);
     let own = [&mut material.diffuse_texture, &mut material.normal_texture];
     for texture in own.into_iter().flatten().chain(kept) {
@@ -307,16 +311,49 @@ fn relative_to_obj(material: &mut tobj::Material, library: &str) {
     }
 }
 
+/// A texture statement's argument as a map: its file, and the `-s` and `-o` options
+/// (each one to three numbers; the others are passed over).
+fn mtl_map(argument: &str) -> Option<MtlMap> {
+    let file = texture_file(argument)?;
+    let words: Vec<&str> = argument.split_whitespace().collect();
+    let options = &words[..words.len() - 1];
+    let (mut scale, mut offset) = ([1.0f32; 2], [0.0f32; 2]);
+    for (at, word) in options.iter().enumerate() {
+        let target = match *word {
+            "-s" => &mut scale,
+            "-o" => &mut offset,
+            _ => continue,
+        };
+        let numbers = options[at + 1..]
+            .iter()
+            .map_while(|w| w.parse::<f32>().ok());
+        for (slot, x) in target.iter_mut().zip(numbers) {
+            *slot = x;
+        }
+    }
+    Some(MtlMap {
+        file: file.to_owned(),
+        scale,
+        offset,
+    })
+}
+
 /// What glTF can hold of an MTL material's look.
 fn look(material: &tobj::Material) -> MtlLook {
-    let param = |key: &str| material.unknown_param.get(key).cloned();
+    let param = |key: &str| material.unknown_param.get(key);
+    let number = |key: &str| param(key).and_then(|p| p.trim().parse::<f32>().ok());
+    let map = |argument: Option<&String>| argument.and_then(|a| mtl_map(a));
+    let (metalness, roughness) = (map(param(MAP_PM)), map(param(MAP_PR)));
     MtlLook {
         diffuse: material.diffuse.unwrap_or([1.0; 3]),
         dissolve: material.dissolve.unwrap_or(1.0),
         emissive: material.emissive.unwrap_or([0.0; 3]),
-        diffuse_map: material.diffuse_texture.clone(),
-        normal_map: material.normal_texture.clone().or_else(|| param(NORM)),
-        emissive_map: param(MAP_KE),
+        metallic: number("Pm"),
+        roughness: number("Pr"),
+        diffuse_map: map(material.diffuse_texture.as_ref()),
+        normal_map: map(material.normal_texture.as_ref().or(param(NORM))),
+        emissive_map: map(param(MAP_KE)),
+        metallic_roughness_map: metalness.filter(|m| roughness.is_some_and(|r| r == *m)),
         dissolve_map: material.dissolve_texture.is_some(),
     }
 }
@@ -540,7 +577,14 @@ fn write_distinct<const N: usize>(
     Ok((of_vertex, index.len()))
 }
 
-pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
+/// Write `scene` as OBJ to `path`. Its materials are named as read, or, with
+/// `library` (a library written for it: its file name and each material's name), by
+/// that library's names.
+pub(super) fn write(
+    scene: &Scene,
+    path: &Path,
+    library: Option<(&str, &[String])>,
+) -> std::io::Result<()> {
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
     writeln!(out, "# written by rtmesh {}", env!("CARGO_PKG_VERSION"))?;
     if let Some(super::Document::Obj { material_libraries }) = scene.document.as_deref() {
@@ -548,6 +592,15 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
             writeln!(out, "mtllib {library}")?;
         }
     }
+    if let Some((file, _)) = library {
+        writeln!(out, "mtllib {file}")?;
+    }
+    let material_name = |m: u32| match library {
+        Some((_, names)) => names.get(m as usize).map(String::as_str),
+        None => (scene.materials.get(m as usize))
+            .map(|m| m.name.as_str())
+            .filter(|name| !name.is_empty()),
+    };
     let (mut position_base, mut uv_base, mut normal_base) = (1usize, 1usize, 1usize);
     for (i, instance) in scene.instances.iter().enumerate() {
         let mesh = &scene.meshes[instance.mesh];
@@ -605,11 +658,8 @@ pub(super) fn write(scene: &Scene, path: &Path) -> std::io::Result<()> {
             let m = mesh.material_ids.get(t).copied();
             if m != material {
                 material = m;
-                if let Some(named) = m
-                    .and_then(|m| scene.materials.get(m as usize))
-                    .filter(|m| !m.name.is_empty())
-                {
-                    writeln!(out, "usemtl {}", named.name)?;
+                if let Some(name) = m.and_then(material_name) {
+                    writeln!(out, "usemtl {name}")?;
                 }
             }
             write!(out, "f")?;

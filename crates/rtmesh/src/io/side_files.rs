@@ -98,7 +98,10 @@ fn references(input: &Path, scene: &Scene, format: Format, root: &Path) -> Vec<R
                 }
             }
         }
-        (Some(Document::Gltf(document)), Format::Gltf | Format::Glb) => {
+        // An OBJ from a glTF names the image files in the library translated for it.
+        (Some(Document::Gltf(document)), Format::Gltf | Format::Glb | Format::Obj)
+            if format != Format::Obj || !document.root().materials.is_empty() =>
+        {
             let uris = document
                 .root()
                 .images
@@ -148,7 +151,7 @@ pub fn check_side_files(input: &Path, scene: &Scene, options: &ReadOptions) -> S
 /// Copy the files that `scene`, read from `input` with `options`, and written to
 /// `output`, refers to but does not write, to the same relative paths beside `output`.
 /// Nothing is copied when the output is in the input's folder or its format keeps no
-/// such reference (PLY, STL; an OBJ from a glTF).
+/// such reference (PLY, STL).
 pub fn copy_side_files(
     input: &Path,
     scene: &Scene,
@@ -217,6 +220,33 @@ pub fn copy_side_files(
         report.copied.push(destination);
     }
     Ok(report)
+}
+
+/// Write the files a writer makes beside its output (an OBJ's material library
+/// translated from a glTF, the images it extracts), each path with its bytes, by the
+/// side files' rule: a file already there with the same bytes is left alone, a
+/// different one is an error and left alone, and nothing is written unless all can be.
+pub(super) fn write_beside(files: &[(PathBuf, Vec<u8>)], output: &Path) -> Result<(), MeshError> {
+    let mut fresh = Vec::new();
+    for (path, bytes) in files {
+        match std::fs::read(path) {
+            Ok(there) if &there == bytes => {}
+            Ok(_) => {
+                return Err(MeshError::invalid(
+                    path,
+                    format!(
+                        "exists and differs from what {} needs beside it: remove it or write the output elsewhere",
+                        output.display()
+                    ),
+                ))
+            }
+            Err(_) => fresh.push((path, bytes)),
+        }
+    }
+    for (path, bytes) in fresh {
+        write_whole(path, bytes)?;
+    }
+    Ok(())
 }
 
 /// Write `bytes` to `destination` through a temporary file beside it, renamed into

@@ -74,23 +74,47 @@ pub struct MtlLook {
     pub dissolve: f32,
     /// `Ke`: black when absent.
     pub emissive: [f32; 3],
+    /// `Pm` (MTL's PBR extension): metalness, when given.
+    pub metallic: Option<f32>,
+    /// `Pr` (MTL's PBR extension): roughness, when given.
+    pub roughness: Option<f32>,
     /// `map_Kd`.
-    pub diffuse_map: Option<String>,
+    pub diffuse_map: Option<MtlMap>,
     /// `map_Bump`, `bump` or `norm`: glTF takes it as a normal map.
-    pub normal_map: Option<String>,
+    pub normal_map: Option<MtlMap>,
     /// `map_Ke`.
-    pub emissive_map: Option<String>,
+    pub emissive_map: Option<MtlMap>,
+    /// `map_Pm` and `map_Pr` when both name one file (metalness and roughness in two of
+    /// its channels, as glTF packs them).
+    pub metallic_roughness_map: Option<MtlMap>,
     /// Whether it has a `map_d`, a cut-out mask (glTF has no place for the map itself:
     /// its opacity is the base colour's alpha).
     pub dissolve_map: bool,
 }
 
+/// One MTL texture map: its file, and where its `-s` and `-o` options place it (the
+/// image is looked up at uv·scale + offset, from its bottom-left corner).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MtlMap {
+    /// The image file, relative to the OBJ's folder.
+    pub file: String,
+    /// `-s u v`: (1, 1) when absent.
+    pub scale: [f32; 2],
+    /// `-o u v`: (0, 0) when absent.
+    pub offset: [f32; 2],
+}
+
 impl MtlLook {
-    /// The texture files it names: the diffuse, normal and emissive maps.
+    /// The texture files it names: the diffuse, normal, emissive and
+    /// metallic-roughness maps.
     pub fn texture_files(&self) -> impl Iterator<Item = &String> {
-        [&self.diffuse_map, &self.normal_map, &self.emissive_map]
-            .into_iter()
-            .flatten()
+        let maps = [
+            &self.diffuse_map,
+            &self.normal_map,
+            &self.emissive_map,
+            &self.metallic_roughness_map,
+        ];
+        maps.into_iter().flatten().map(|map| &map.file)
     }
 }
 

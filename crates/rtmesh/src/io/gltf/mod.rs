@@ -8,8 +8,10 @@
 //! (`write.rs`). Every accessor is bounds-checked against its buffer before it is read,
 //! so a lying file is an error, not a panic.
 
+mod mtl;
 mod write;
 
+pub(crate) use mtl::{mtl_library, MtlLibrary};
 pub(super) use write::{write, write_strips};
 
 use super::{CountingReader, MeshError};

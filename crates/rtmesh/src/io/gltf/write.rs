@@ -502,17 +502,29 @@ fn fresh_primitive(scene: &Scene, material: u32) -> json::mesh::Primitive {
 /// textures and images for materials from an MTL library.
 fn fresh_root(scene: &Scene) -> json::Root {
     let mut images: Vec<String> = Vec::new();
-    let mut texture = |file: &Option<String>| {
-        file.as_ref().map(|file| {
-            let index = images.iter().position(|i| i == file).unwrap_or_else(|| {
-                images.push(file.clone());
-                images.len() - 1
-            });
+    let mut transformed = false;
+    let mut texture = |map: &Option<crate::mesh::MtlMap>| {
+        map.as_ref().map(|map| {
+            let index = images
+                .iter()
+                .position(|i| *i == map.file)
+                .unwrap_or_else(|| {
+                    images.push(map.file.clone());
+                    images.len() - 1
+                });
             // OBJ's texture coordinates start at the image's bottom row, glTF's at its
             // top. The coordinates are written exactly as read (every attribute is kept
-            // bit for bit), and the texture takes the flip: v' = 1 - v.
+            // bit for bit), and the texture takes the flip, v' = 1 - v, after the map's
+            // own placement uv·s + o: glTF's scale (s_u, -s_v), offset (o_u, 1 - o_v).
+            let [su, sv] = map.scale;
+            let [ou, ov] = map.offset;
+            let (scale, offset) = ([su, -sv], [ou, 1.0 - ov]);
+            if scale == [1.0, 1.0] && offset == [0.0, 0.0] {
+                return value!({ "index": index });
+            }
+            transformed = true;
             value!({ "index": index, "extensions": { TEXTURE_TRANSFORM: {
-                "offset": [0.0, 1.0], "scale": [1.0, -1.0] } } })
+                "offset": offset, "scale": scale } } })
         })
     };
     let materials = scene
@@ -539,7 +551,7 @@ fn fresh_root(scene: &Scene) -> json::Root {
         })
         .collect();
     json::Root {
-        extensions_used: (!images.is_empty())
+        extensions_used: transformed
             .then(|| TEXTURE_TRANSFORM.to_owned())
             .into_iter()
             .collect(),
@@ -556,13 +568,15 @@ const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
 /// An MTL material's look in glTF's terms, as obj2gltf translates it: `Kd` and `d` are
 /// the base colour (white under a `map_Kd`, which holds the colour itself), and the
 /// surface is a rough dielectric (glTF's default, a smooth metal, would turn a diffuse
-/// OBJ dark); `Ke` is the emissive factor; the bump map becomes the normal texture.
+/// OBJ dark) unless MTL's PBR extension gives `Pm` and `Pr`, whose maps on one file are
+/// the metallic-roughness texture; `Ke` is the emissive factor; the bump map becomes
+/// the normal texture.
 /// An opacity below 1 without a cut-out map is blended. MTL's specular terms and
 /// `map_d` have no glTF place (glTF takes opacity from the base colour's alpha).
 fn material_from_mtl(
     material: &mut serde_json::Value,
     look: &crate::mesh::MtlLook,
-    texture: &mut dyn FnMut(&Option<String>) -> Option<serde_json::Value>,
+    texture: &mut dyn FnMut(&Option<crate::mesh::MtlMap>) -> Option<serde_json::Value>,
 ) {
     let [r, g, b] = match look.diffuse_map {
         Some(_) => [1.0; 3],
@@ -570,11 +584,14 @@ fn material_from_mtl(
     };
     let mut pbr = value!({
         "baseColorFactor": [r, g, b, look.dissolve.clamp(0.0, 1.0)],
-        "metallicFactor": 0.0,
-        "roughnessFactor": 1.0,
+        "metallicFactor": look.metallic.unwrap_or(0.0).clamp(0.0, 1.0),
+        "roughnessFactor": look.roughness.unwrap_or(1.0).clamp(0.0, 1.0),
     });
     if let Some(base) = texture(&look.diffuse_map) {
         pbr["baseColorTexture"] = base;
+    }
+    if let Some(metallic_roughness) = texture(&look.metallic_roughness_map) {
+        pbr["metallicRoughnessTexture"] = metallic_roughness;
     }
     material["pbrMetallicRoughness"] = pbr;
     if look.dissolve < 1.0 && !look.dissolve_map {
