@@ -55,6 +55,13 @@ mkdir -p "$out/textured"
 run convert "$src/textured.obj" "$out/textured/textured.gltf"
 run convert "$src/textured.obj" "$out/textured/textured.glb"
 run optimize "$src" -o "$out/textured/optimized" --format glb --size 0x0
+# glTF to OBJ and back: the materials through an MTL library, the GLB's stored images
+# extracted beside the OBJ and stored again in the GLB written from it.
+mkdir -p "$out/textured/obj" "$out/cesium"
+run convert "$out/textured/textured.glb" "$out/textured/obj/textured.obj"
+run convert "$out/textured/obj/textured.obj" "$out/textured/obj/back.glb"
+run convert "$data/animated/CesiumMan.glb" "$out/cesium/cesium.obj" 2> /dev/null
+run convert "$out/cesium/cesium.obj" "$out/cesium/back.glb"
 rm -rf "$src"
 # `animate --motion gltf`: skinned frames baked into one geometry each.
 run animate "$data/animated/Fox.glb" --motion gltf:Run --frames 3 -o "$out/fox-run-frames"

@@ -126,7 +126,7 @@ pub fn write_mesh(
 ) -> Result<(SideFiles, WriteNotes)> {
     // First, so that a side file in the way stops the write before anything is written.
     let copies = copy_side_files(input, scene, path)?;
-    let notes = rtmesh::io::write(scene, path)?;
+    let notes = rtmesh::io::write_with_images(scene, path, &copies.images)?;
     if notes.inactive_collapsed > 0 {
         eprintln!(
             "note: {}: glTF cannot hold NaN, so {} inactive triangles were written as degenerate triangles collapsed onto a corner (same place in the order, no area)",

@@ -112,6 +112,7 @@ fn info_convert_pair_lint_repair_keys() {
             "merged_vertices",
             "side_files",
             "written_beside",
+            "embedded_images",
             "not_held",
         ],
     );

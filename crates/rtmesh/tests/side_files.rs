@@ -459,3 +459,50 @@ fn what_a_format_cannot_hold_is_named() {
     assert_eq!(not_held("a.ply"), ["materials: 2 (the format holds none)"]);
     assert!(not_held("a.glb").is_empty());
 }
+
+#[test]
+fn a_glb_from_an_obj_stores_its_png_and_jpeg_textures_and_copies_the_rest() {
+    let (input, out) = sandbox("obj-to-glb");
+    std::fs::write(input.join("a.obj"), format!("mtllib a.mtl\nvt 0 0\n{QUAD}")).unwrap();
+    let library = "newmtl glass\nmap_Kd tex/d.png\nnorm tex/n.jpg\nmap_Ke tex/e.webp\n";
+    std::fs::write(input.join("a.mtl"), library).unwrap();
+    let jpeg = [0xffu8, 0xd8, 0xff, 0xe0, 1, 2];
+    std::fs::write(input.join("tex/d.png"), PNG).unwrap();
+    std::fs::write(input.join("tex/n.jpg"), jpeg).unwrap();
+    std::fs::write(input.join("tex/e.webp"), b"RIFF....WEBP").unwrap();
+    for (output, copied) in [
+        (out.join("a.glb"), vec![out.join("tex/e.webp")]),
+        // In the input's folder nothing is copied, and the images are still stored.
+        (input.join("b.glb"), vec![]),
+    ] {
+        let options = ReadOptions::default();
+        let scene = rtmesh::io::read_with(&input.join("a.obj"), &options, &mut |_, _| {}).unwrap();
+        let copies = copy_side_files(&input.join("a.obj"), &scene, &output, &options).unwrap();
+        assert_eq!(copies.copied, copied);
+        assert_eq!(
+            copies.embedded,
+            [input.join("tex/d.png"), input.join("tex/n.jpg")]
+        );
+        rtmesh::io::write_with_images(&scene, &output, &copies.images).unwrap();
+        let gltf = gltf::Gltf::open(&output).unwrap();
+        let blob = gltf.blob.clone().unwrap();
+        let stored: Vec<(Option<String>, Option<Vec<u8>>)> = gltf
+            .images()
+            .map(|image| match image.source() {
+                gltf::image::Source::View { view, mime_type } => {
+                    let bytes = &blob[view.offset()..view.offset() + view.length()];
+                    (Some(mime_type.to_owned()), Some(bytes.to_vec()))
+                }
+                gltf::image::Source::Uri { uri, .. } => (Some(uri.to_owned()), None),
+            })
+            .collect();
+        assert_eq!(
+            stored,
+            [
+                (Some("image/png".to_owned()), Some(PNG.to_vec())),
+                (Some("image/jpeg".to_owned()), Some(jpeg.to_vec())),
+                (Some("tex/e.webp".to_owned()), None),
+            ]
+        );
+    }
+}

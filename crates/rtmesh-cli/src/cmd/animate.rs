@@ -80,6 +80,7 @@ pub fn run(args: Args) -> Result<()> {
         .with_context(|| format!("{}: cannot make the folder", args.output.display()))?;
     let bar = steps_bar(args.frames);
     let mut files = Vec::with_capacity(args.frames);
+    let mut images = Vec::new();
     for f in 0..args.frames {
         bar.message(&format!("frame {f}"));
         animation.pose(
@@ -88,10 +89,11 @@ pub fn run(args: Args) -> Result<()> {
         );
         let path = args.output.join(format!("frame-{f:04}.{format}"));
         if f == 0 {
-            // Every frame refers to the same material libraries and textures.
-            crate::output::copy_side_files(&args.mesh, &frame, &path)?;
+            // Every frame refers to the same material libraries and textures (or, as
+            // GLBs from another format, stores the same images).
+            images = crate::output::copy_side_files(&args.mesh, &frame, &path)?.images;
         }
-        rtmesh::io::write(&frame, &path)?;
+        rtmesh::io::write_with_images(&frame, &path, &images)?;
         files.push(path);
         bar.advance(1);
     }

@@ -10,7 +10,8 @@ use std::path::PathBuf;
 ///
 /// OBJ and PLY hold one level, so instances are flattened; glTF/GLB keep them. An OBJ
 /// written from a glTF gets its materials as an MTL library beside it (STEM.mtl, with
-/// the images the glTF stored itself as STEM_imageN files); what the output format
+/// the images the glTF stored itself as STEM_imageN files), and a GLB written from
+/// another format stores its PNG and JPEG textures, as one file; what the output format
 /// cannot hold (skins, animations, extra attributes) is named on standard error and in
 /// `--json`'s `not_held`.
 #[derive(clap::Args)]
@@ -44,6 +45,8 @@ pub struct Report {
     /// The files written beside it for it: an OBJ's material library translated from a
     /// glTF's materials, and the images the glTF stored itself.
     written_beside: Vec<PathBuf>,
+    /// The image files stored in it (a GLB from another format is one file).
+    embedded_images: Vec<PathBuf>,
     /// What the output's format cannot hold and the output goes without, in words.
     not_held: Vec<String>,
 }
@@ -69,6 +72,7 @@ pub fn run(args: Args) -> Result<()> {
         vertices: scene.instanced_vertex_count(),
         merged_vertices,
         side_files: copies.copied,
+        embedded_images: copies.embedded,
         written_beside: notes.written_beside,
         not_held: notes.not_held,
     };
@@ -80,6 +84,9 @@ pub fn run(args: Args) -> Result<()> {
             r.vertices,
             r.merged_vertices
         );
+        if !r.embedded_images.is_empty() {
+            println!("stored {} images in it", r.embedded_images.len());
+        }
         for file in &r.written_beside {
             println!("wrote {} beside it", file.display());
         }

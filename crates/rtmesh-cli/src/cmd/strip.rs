@@ -136,8 +136,8 @@ pub fn run(args: Args) -> Result<()> {
         }
         let seconds = start.elapsed().as_secs_f64();
         let path = args.output.as_ref().expect("an output has an extension");
-        copy_side_files(&args.mesh, &scene, path)?;
-        rtmesh::io::write_gltf_strips(&scene, &all, path)?;
+        let copies = copy_side_files(&args.mesh, &scene, path)?;
+        rtmesh::io::write_gltf_strips(&scene, &all, path, &copies.images)?;
         (all, native, seconds)
     } else {
         let flat = (scene.flatten())

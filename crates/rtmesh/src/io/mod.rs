@@ -260,6 +260,18 @@ pub struct WriteNotes {
 /// instance). glTF/GLB keep meshes, materials and instance transforms; they cannot hold
 /// NaN, so inactive triangles are collapsed ([`WriteNotes::inactive_collapsed`]).
 pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
+    write_with_images(scene, path, &[])
+}
+
+/// [`write`], with `images` (each a texture file as the materials name it, with its
+/// bytes: [`SideFiles::images`]) stored in the binary chunk when `path` is a GLB
+/// written from another format, so that the GLB is one file; elsewhere they are not
+/// used.
+pub fn write_with_images(
+    scene: &Scene,
+    path: &Path,
+    images: &[(String, Vec<u8>)],
+) -> Result<WriteNotes, MeshError> {
     let format = Format::from_path(path)?;
     let io_error = |e| MeshError::io(path, e);
     let too_large = |e: crate::mesh::TooManyToFlatten| {
@@ -290,7 +302,7 @@ pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
         Format::Ply => ply::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
         Format::Stl => stl::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
         Format::Gltf | Format::Glb => {
-            notes = gltf::write(scene, path, format == Format::Glb).map_err(io_error)?;
+            notes = gltf::write(scene, path, format == Format::Glb, images).map_err(io_error)?;
         }
     }
     notes.not_held.splice(0..0, not_held(scene, format));
@@ -396,6 +408,7 @@ pub fn write_gltf_strips(
     scene: &Scene,
     strips: &[crate::strip::Strips],
     path: &Path,
+    images: &[(String, Vec<u8>)],
 ) -> Result<WriteNotes, MeshError> {
     let format = Format::from_path(path)?;
     if !matches!(format, Format::Gltf | Format::Glb) {
@@ -404,7 +417,7 @@ pub fn write_gltf_strips(
             "strips as primitives are written to .gltf or .glb".to_owned(),
         ));
     }
-    gltf::write_strips(scene, strips, path, format == Format::Glb)
+    gltf::write_strips(scene, strips, path, format == Format::Glb, images)
         .map_err(|e| MeshError::io(path, e))
 }
 

@@ -44,6 +44,24 @@ pub struct SideFiles {
     /// References the rule for references refuses (absolute, climbing out of the asset
     /// root, not a regular file, too large), each with why: not copied.
     pub refused: Vec<String>,
+    /// The image files read to be embedded in a GLB written from another format (PNG
+    /// and JPEG, the image types glTF's core holds in a buffer), not copied.
+    pub embedded: Vec<PathBuf>,
+    /// Their bytes, by the name the materials give them, for [`super::write_with_images`].
+    #[serde(skip)]
+    pub images: Vec<(String, Vec<u8>)>,
+}
+
+/// The MIME type of an image glTF's core can store in a buffer (PNG, JPEG), by its
+/// first bytes; `None` for any other.
+pub(super) fn embeddable_image_type(bytes: &[u8]) -> Option<&'static str> {
+    if bytes.starts_with(&[0x89, b'P', b'N', b'G', 0x0d, 0x0a, 0x1a, 0x0a]) {
+        Some("image/png")
+    } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
+        Some("image/jpeg")
+    } else {
+        None
+    }
 }
 
 /// One file a written mesh refers to.
@@ -151,7 +169,9 @@ pub fn check_side_files(input: &Path, scene: &Scene, options: &ReadOptions) -> S
 /// Copy the files that `scene`, read from `input` with `options`, and written to
 /// `output`, refers to but does not write, to the same relative paths beside `output`.
 /// Nothing is copied when the output is in the input's folder or its format keeps no
-/// such reference (PLY, STL).
+/// such reference (PLY, STL). A GLB written from another format (an OBJ's MTL
+/// textures) is one file, as obj2gltf writes it: its PNG and JPEG textures are read
+/// to be embedded ([`SideFiles::images`]) instead of copied, wherever the output is.
 pub fn copy_side_files(
     input: &Path,
     scene: &Scene,
@@ -162,7 +182,10 @@ pub fn copy_side_files(
     let (from, to) = (asset_folder(input), asset_folder(output));
     let format = Format::from_path(output)?;
     let from_lexical = lexical(&from);
-    if from_lexical == lexical(&to) {
+    let same_folder = from_lexical == lexical(&to);
+    let embedding =
+        format == Format::Glb && !matches!(scene.document.as_deref(), Some(Document::Gltf(_)));
+    if same_folder && !embedding {
         return Ok(report);
     }
     let root = options.asset_root.clone().unwrap_or_else(|| from.clone());
@@ -175,6 +198,26 @@ pub fn copy_side_files(
                 continue;
             }
         };
+        if embedding {
+            if report
+                .images
+                .iter()
+                .any(|(name, _)| *name == reference.name)
+            {
+                continue;
+            }
+            if let Ok(Some(bytes)) = reference.read(&root) {
+                if embeddable_image_type(&bytes).is_some() {
+                    report.embedded.push(source);
+                    report.images.push((reference.name, bytes));
+                    continue;
+                }
+                reference.bytes = Some(bytes);
+            }
+            if same_folder {
+                continue;
+            }
+        }
         let relative = lexical(&source)
             .zip(from_lexical.as_ref())
             .and_then(|(source, from)| source.strip_prefix(from).ok().map(Path::to_owned));

@@ -336,7 +336,7 @@ fn strips_written_as_gltf_and_ply_read_back_as_the_same_surface() {
         .collect();
     for name in ["room.glb", "room.gltf"] {
         let path = dir.join(name);
-        crate::io::write_gltf_strips(&scene, &strips, &path).unwrap();
+        crate::io::write_gltf_strips(&scene, &strips, &path, &[]).unwrap();
         let back = crate::io::read(&path).unwrap();
         assert_eq!(back.meshes.len(), scene.meshes.len());
         for (a, b) in scene.meshes.iter().zip(&back.meshes) {

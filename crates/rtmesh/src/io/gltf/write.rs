@@ -562,6 +562,29 @@ fn fresh_root(scene: &Scene) -> json::Root {
     }
 }
 
+/// Store each image of a fresh document whose file is among `images` (PNG or JPEG) in
+/// the buffer, in place of its URI: a GLB from an OBJ is then one file.
+fn embed_images(root: &mut json::Root, images: &[(String, Vec<u8>)], out: &mut Output) {
+    for image in &mut root.images {
+        let Some(file) = image
+            .uri
+            .as_deref()
+            .and_then(crate::io::reference::percent_decode)
+        else {
+            continue;
+        };
+        let Some((_, bytes)) = images.iter().find(|(name, _)| *name == file) else {
+            continue;
+        };
+        let Some(mime) = crate::io::side_files::embeddable_image_type(bytes) else {
+            continue;
+        };
+        image.buffer_view = Some(out.view(bytes, None, None));
+        image.mime_type = Some(json::image::MimeType(mime.to_owned()));
+        image.uri = None;
+    }
+}
+
 /// The glTF extension that flips an OBJ's texture coordinates for its textures.
 const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
 
@@ -648,13 +671,15 @@ impl<'a> Streams<'a> {
     }
 }
 
-/// Write `scene` as glTF (`binary`: GLB) to `path`.
+/// Write `scene` as glTF (`binary`: GLB) to `path`; a GLB from another format stores
+/// the textures among `images` (file name, bytes) that it names in its buffer.
 pub(in crate::io) fn write(
     scene: &Scene,
     path: &Path,
     binary: bool,
+    images: &[(String, Vec<u8>)],
 ) -> std::io::Result<WriteNotes> {
-    write_with(scene, None, path, binary)
+    write_with(scene, None, path, binary, images)
 }
 
 /// [`write`] with each geometry's triangles as `TRIANGLE_STRIP` primitives: `strips[m]`
@@ -667,8 +692,9 @@ pub(in crate::io) fn write_strips(
     strips: &[crate::strip::Strips],
     path: &Path,
     binary: bool,
+    images: &[(String, Vec<u8>)],
 ) -> std::io::Result<WriteNotes> {
-    write_with(scene, Some(strips), path, binary)
+    write_with(scene, Some(strips), path, binary, images)
 }
 
 fn write_with(
@@ -676,6 +702,7 @@ fn write_with(
     strips: Option<&[crate::strip::Strips]>,
     path: &Path,
     binary: bool,
+    images: &[(String, Vec<u8>)],
 ) -> std::io::Result<WriteNotes> {
     let source = match scene.document.as_deref() {
         Some(Document::Gltf(document)) => Some(document),
@@ -689,7 +716,13 @@ fn write_with(
             let kept = keep_unchanged(document, &mut root, &mut out);
             (root, kept, document.group_sources())
         }
-        None => (fresh_root(scene), Vec::new(), Vec::new()),
+        None => {
+            let mut root = fresh_root(scene);
+            if binary {
+                embed_images(&mut root, images, &mut out);
+            }
+            (root, Vec::new(), Vec::new())
+        }
     };
     let source_meshes = source.map_or(0, |d| d.root.meshes.len());
     let mut other_primitives_written = vec![false; source_meshes];
