@@ -18,6 +18,7 @@ subcommands=(
   "trace --size 64x64 --runs 1"
   "render -o $work/out.png --size 64x48"
   "convert $work/out.glb"
+  "convert $work/converted/FILE/out.obj"
   "optimize -o $work/optimized.glb --size 64x64 --runs 1"
   "strip -o $work/strips.ply"
   "strip --partition morton -o $work/morton-strips.ply"
@@ -30,6 +31,9 @@ checked=0 failed=0
 for file in *.obj *.ply *.gltf *.glb *.stl; do
   for subcommand in "${subcommands[@]}"; do
     read -r -a words <<< "$subcommand"
+    # FILE: a folder of its own for each input's output (an OBJ's library beside it).
+    words=("${words[@]//FILE/$file}")
+    mkdir -p "$work/converted/$file"
     out="$( (ulimit -v 4194304; timeout 30 "$rtmesh" "${words[0]}" "$file" "${words[@]:1}" --json) 2> "$work/stderr")"
     rc=$?
     err="$(cat "$work/stderr")"
@@ -84,6 +88,25 @@ expect amp-channels.gltf ok info
 expect amp-obj-mtllib-respelled.obj "material libraries hold over" info
 expect amp-channels.gltf "over and over" dynamic --motion gltf --frames 2 --size 16x16 --runs 1
 expect amp-channels.gltf "over and over" animate --motion gltf --frames 2 -o "$work/frames"
+# No file any command wrote holds the canary's bytes (a copied or stored image).
+checked=$((checked + 1))
+if ! python3 - "$work" <<'PY'
+import os, sys
+work = sys.argv[1]
+canary = open(os.path.join(work, "canary.bin"), "rb").read()
+for folder, _, names in os.walk(work):
+    if os.path.abspath(folder).startswith(os.path.join(work, "asset")):
+        continue
+    for name in names:
+        path = os.path.join(folder, name)
+        if path != os.path.join(work, "canary.bin") and not os.path.islink(path):
+            if canary in open(path, "rb").read():
+                sys.exit(f"{path} holds the canary")
+PY
+then
+  echo "FAIL: a written file holds the canary"
+  failed=$((failed + 1))
+fi
 files=$(ls *.obj *.ply *.gltf *.glb *.stl | wc -l)
 echo "hostile-input suite: $files files x ${#subcommands[@]} subcommands and $((checked - files * ${#subcommands[@]})) checks by subcommand = $checked runs, $failed failed"
 [ "$failed" = 0 ]

@@ -60,6 +60,16 @@ write("ok-bare.gltf", gltf("ok-bare.bin"))
 with_images = json.loads(gltf("ok-bare.bin"))
 with_images["images"] = [{"uri": u} for u in ["../canary.bin", "%2e%2e/canary.bin", "/etc/passwd", "/dev/zero", "missing.png", "ok-bare.bin"]]
 write("ok-gltf-image-uris.gltf", json.dumps(with_images))
+# The same images as materials' textures, with a data: URI of no image and a buffer view
+# as an image: written as OBJ, each becomes a map of the MTL library beside it (stored
+# ones extracted), and the same rule keeps the canary out of every copy.
+with_images["images"] += [{"uri": "data:image/png;base64,AAAA"}, {"bufferView": 0, "mimeType": "image/png"}]
+with_images["textures"] = [{"source": i} for i in range(len(with_images["images"]))]
+with_images["materials"] = [{"pbrMetallicRoughness": {"baseColorTexture": {"index": i}},
+                             "normalTexture": {"index": i, "scale": 2}}
+                            for i in range(len(with_images["images"]))]
+with_images["meshes"][0]["primitives"][0]["material"] = 0
+write("ok-gltf-material-images.gltf", json.dumps(with_images))
 write("refuse-buffer-climb.gltf", gltf("../canary.bin"))
 write("refuse-buffer-escaped.gltf", gltf("%2e%2e/canary.bin"))
 write("refuse-buffer-absolute.gltf", gltf(os.path.join(root, "canary.bin")))
