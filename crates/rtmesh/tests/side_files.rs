@@ -506,3 +506,22 @@ fn a_glb_from_an_obj_stores_its_png_and_jpeg_textures_and_copies_the_rest() {
         );
     }
 }
+
+#[test]
+fn a_texture_file_name_with_spaces_is_copied_whole() {
+    let (input, out) = sandbox("spaces");
+    std::fs::write(input.join("a.obj"), format!("mtllib a.mtl\n{QUAD}")).unwrap();
+    let library = "newmtl glass\nmap_Kd -s 1 1 1 tex/my texture.png\n";
+    std::fs::write(input.join("a.mtl"), library).unwrap();
+    std::fs::write(input.join("tex/my texture.png"), PNG).unwrap();
+    let copies = convert(
+        &input.join("a.obj"),
+        &out.join("a.obj"),
+        &ReadOptions::default(),
+    );
+    assert_eq!(
+        copies.copied,
+        [out.join("a.mtl"), out.join("tex/my texture.png")]
+    );
+    assert!(copies.missing.is_empty(), "{copies:?}");
+}

@@ -250,10 +250,49 @@ fn colours_as_triples(library: &[u8]) -> Result<Vec<u8>, (usize, String)> {
     Ok(out)
 }
 
-/// The file a texture statement's argument names: its last word (options such as
-/// `-s 1 1 1` come before it).
+/// A texture statement's argument as its options and the file they place: the file is
+/// what follows the options (`-s 1 1 1`, `-bm 0.5`, ...), spaces included, as the MTL
+/// specification lays them out: each option takes its count of arguments, `-o`, `-s`
+/// and `-t` one to three numbers.
+fn texture_parts(argument: &str) -> Option<(&str, &str)> {
+    let argument = argument.trim();
+    // The byte where the word at or after `at` starts, and where it ends.
+    let word = |at: usize| -> Option<(usize, usize)> {
+        let start = at + argument[at..].find(|c: char| !c.is_whitespace())?;
+        let end = start
+            + argument[start..]
+                .find(char::is_whitespace)
+                .unwrap_or(argument.len() - start);
+        Some((start, end))
+    };
+    let mut at = 0;
+    while let Some((start, end)) = word(at) {
+        let arguments = match &argument[start..end] {
+            "-blendu" | "-blendv" | "-bm" | "-boost" | "-cc" | "-clamp" | "-imfchan"
+            | "-texres" | "-type" => 1,
+            "-mm" => 2,
+            "-o" | "-s" | "-t" => 3,
+            _ => break,
+        };
+        at = end;
+        for k in 0..arguments {
+            let Some((start, end)) = word(at) else { break };
+            // Past the first, the numbers of -o/-s/-t are optional: a word that is no
+            // number, or the last word (the file), ends them.
+            let optional = k > 0 && arguments == 3;
+            if optional && (argument[start..end].parse::<f32>().is_err() || word(end).is_none()) {
+                break;
+            }
+            at = end;
+        }
+    }
+    let (start, _) = word(at)?;
+    Some((argument[..start].trim_end(), &argument[start..]))
+}
+
+/// The file a texture statement's argument names (see [`texture_parts`]).
 fn texture_file(argument: &str) -> Option<&str> {
-    argument.split_whitespace().last()
+    texture_parts(argument).map(|(_, file)| file)
 }
 
 /// MTL statements whose last argument is a texture file.
@@ -297,9 +336,9 @@ fn relative_to_obj(material: &mut tobj::Material, library: &str) {
         return;
     };
     let relative = |argument: &mut String| {
-        if let Some(file) = texture_file(argument) {
-            let options = argument[..argument.len() - file.len()].to_owned();
-            *argument = format!("{options}{}/{file}", folder.to_string_lossy());
+        if let Some((options, file)) = texture_parts(argument) {
+            let folder = folder.to_string_lossy();
+            *argument = format!("{options} {folder}/{file}").trim_start().to_owned();
         }
     };
     let kept = (material.unknown_param.iter_mut())
@@ -314,9 +353,8 @@ fn relative_to_obj(material: &mut tobj::Material, library: &str) {
 /// A texture statement's argument as a map: its file, and the `-s` and `-o` options
 /// (each one to three numbers; the others are passed over).
 fn mtl_map(argument: &str) -> Option<MtlMap> {
-    let file = texture_file(argument)?;
-    let words: Vec<&str> = argument.split_whitespace().collect();
-    let options = &words[..words.len() - 1];
+    let (options, file) = texture_parts(argument)?;
+    let options: Vec<&str> = options.split_whitespace().collect();
     let (mut scale, mut offset) = ([1.0f32; 2], [0.0f32; 2]);
     for (at, word) in options.iter().enumerate() {
         let target = match *word {
@@ -690,5 +728,33 @@ mod tests {
         let library = b"newmtl a\nKd 1 0 0\nmap_Kd -s 1 1 1 tex/a.png\nbump -bm 0.5 n.png\n\
                         map_Ks tex/a.png\nrefl -type sphere env.jpg\nmap_d\nnewmtl b\n";
         assert_eq!(mtl_textures(library), ["tex/a.png", "n.png", "env.jpg"]);
+    }
+
+    #[test]
+    fn a_texture_file_is_what_follows_the_options_spaces_included() {
+        let parts = |argument| texture_parts(argument).unwrap();
+        assert_eq!(parts("my tex.png"), ("", "my tex.png"));
+        assert_eq!(
+            parts("-s 1 -1 1 -o 0 1 0 a b.png"),
+            ("-s 1 -1 1 -o 0 1 0", "a b.png")
+        );
+        // -o and -s take one to three numbers; a file named by a number is still the file.
+        assert_eq!(parts("-o 0.5 tex/a.png"), ("-o 0.5", "tex/a.png"));
+        assert_eq!(parts("-s 2 3"), ("-s 2", "3"));
+        assert_eq!(
+            parts("-imfchan g -bm 0.5 -mm 0 1 -clamp on x.png"),
+            ("-imfchan g -bm 0.5 -mm 0 1 -clamp on", "x.png")
+        );
+        assert_eq!(texture_parts("-bm 0.5"), None);
+        assert_eq!(texture_parts("  "), None);
+        let map = mtl_map("-s 2 -4 1 -o 0.5 0.75 0 a b.png").unwrap();
+        assert_eq!(
+            map,
+            MtlMap {
+                file: "a b.png".into(),
+                scale: [2.0, -4.0],
+                offset: [0.5, 0.75]
+            }
+        );
     }
 }
