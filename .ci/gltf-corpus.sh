@@ -60,6 +60,8 @@ run optimize "$src" -o "$out/textured/optimized" --format glb --size 0x0
 mkdir -p "$out/textured/obj" "$out/cesium"
 run convert "$out/textured/textured.glb" "$out/textured/obj/textured.obj"
 run convert "$out/textured/obj/textured.obj" "$out/textured/obj/back.glb"
+# A .gltf whose images are files, as one GLB.
+run convert "$out/textured/textured.gltf" "$out/textured/from-gltf.glb"
 run convert "$data/animated/CesiumMan.glb" "$out/cesium/cesium.obj" 2> /dev/null
 run convert "$out/cesium/cesium.obj" "$out/cesium/back.glb"
 rm -rf "$src"

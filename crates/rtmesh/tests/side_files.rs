@@ -525,3 +525,27 @@ fn a_texture_file_name_with_spaces_is_copied_whole() {
     );
     assert!(copies.missing.is_empty(), "{copies:?}");
 }
+
+#[test]
+fn a_glb_from_a_gltf_stores_its_image_files() {
+    let (input, out) = sandbox("gltf-to-glb");
+    gltf_with_materials(&input);
+    std::fs::write(input.join("tex/n.png"), PNG).unwrap();
+    let options = ReadOptions::default();
+    let scene = rtmesh::io::read_with(&input.join("a.gltf"), &options, &mut |_, _| {}).unwrap();
+    let copies = copy_side_files(&input.join("a.gltf"), &scene, &out.join("a.glb"), &options);
+    let copies = copies.unwrap();
+    assert!(copies.copied.is_empty(), "{copies:?}");
+    assert_eq!(copies.embedded, [input.join("tex/n.png")]);
+    rtmesh::io::write_with_images(&scene, &out.join("a.glb"), &copies.images).unwrap();
+    let gltf = gltf::Gltf::open(out.join("a.glb")).unwrap();
+    let blob = gltf.blob.clone().unwrap();
+    for image in gltf.images() {
+        let gltf::image::Source::View { view, mime_type } = image.source() else {
+            panic!("image {} is not stored", image.index())
+        };
+        assert_eq!(mime_type, "image/png");
+        assert_eq!(&blob[view.offset()..view.offset() + view.length()], PNG);
+    }
+    assert_eq!(gltf.images().count(), 2);
+}

@@ -263,10 +263,9 @@ pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
     write_with_images(scene, path, &[])
 }
 
-/// [`write`], with `images` (each a texture file as the materials name it, with its
-/// bytes: [`SideFiles::images`]) stored in the binary chunk when `path` is a GLB
-/// written from another format, so that the GLB is one file; elsewhere they are not
-/// used.
+/// [`write`], with `images` (each an image file as the scene names it, with its bytes:
+/// [`SideFiles::images`]) stored in the binary chunk when `path` is a GLB, so that the
+/// GLB is one file; elsewhere they are not used.
 pub fn write_with_images(
     scene: &Scene,
     path: &Path,

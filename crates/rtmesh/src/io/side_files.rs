@@ -44,8 +44,8 @@ pub struct SideFiles {
     /// References the rule for references refuses (absolute, climbing out of the asset
     /// root, not a regular file, too large), each with why: not copied.
     pub refused: Vec<String>,
-    /// The image files read to be embedded in a GLB written from another format (PNG
-    /// and JPEG, the image types glTF's core holds in a buffer), not copied.
+    /// The image files read to be stored in a GLB (PNG and JPEG, the image types glTF's
+    /// core holds in a buffer), not copied.
     pub embedded: Vec<PathBuf>,
     /// Their bytes, by the name the materials give them, for [`super::write_with_images`].
     #[serde(skip)]
@@ -169,9 +169,10 @@ pub fn check_side_files(input: &Path, scene: &Scene, options: &ReadOptions) -> S
 /// Copy the files that `scene`, read from `input` with `options`, and written to
 /// `output`, refers to but does not write, to the same relative paths beside `output`.
 /// Nothing is copied when the output is in the input's folder or its format keeps no
-/// such reference (PLY, STL). A GLB written from another format (an OBJ's MTL
-/// textures) is one file, as obj2gltf writes it: its PNG and JPEG textures are read
-/// to be embedded ([`SideFiles::images`]) instead of copied, wherever the output is.
+/// such reference (PLY, STL). A GLB is one file, as obj2gltf and gltf-pipeline write
+/// it: the PNG and JPEG images it refers to (an OBJ's MTL textures, a `.gltf`'s image
+/// files) are read to be stored in it ([`SideFiles::images`]) instead of copied,
+/// wherever the output is.
 pub fn copy_side_files(
     input: &Path,
     scene: &Scene,
@@ -183,8 +184,7 @@ pub fn copy_side_files(
     let format = Format::from_path(output)?;
     let from_lexical = lexical(&from);
     let same_folder = from_lexical == lexical(&to);
-    let embedding =
-        format == Format::Glb && !matches!(scene.document.as_deref(), Some(Document::Gltf(_)));
+    let embedding = format == Format::Glb;
     if same_folder && !embedding {
         return Ok(report);
     }

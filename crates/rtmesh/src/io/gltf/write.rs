@@ -6,7 +6,9 @@
 //! order, each taking the source primitive's material, extras, extensions and its own set of
 //! attributes and morph targets); accessors and buffer views only those primitives
 //! used are dropped, every other one is copied and renumbered, and all data goes to one
-//! buffer. A scene from another format gets a fresh document: one node per instance,
+//! buffer; a GLB also stores the PNG and JPEG image files the document names by URI
+//! (the caller reads them: `copy_side_files`), so that it is one file. A scene from
+//! another format gets a fresh document: one node per instance,
 //! its materials by name and alpha mode (an OBJ's MTL colours and textures translated,
 //! see `material_from_mtl`), every attribute stream on every primitive.
 //!
@@ -562,8 +564,8 @@ fn fresh_root(scene: &Scene) -> json::Root {
     }
 }
 
-/// Store each image of a fresh document whose file is among `images` (PNG or JPEG) in
-/// the buffer, in place of its URI: a GLB from an OBJ is then one file.
+/// Store each image whose file is among `images` (PNG or JPEG) in the buffer, in place
+/// of its URI: a GLB is then one file.
 fn embed_images(root: &mut json::Root, images: &[(String, Vec<u8>)], out: &mut Output) {
     for image in &mut root.images {
         let Some(file) = image
@@ -671,8 +673,8 @@ impl<'a> Streams<'a> {
     }
 }
 
-/// Write `scene` as glTF (`binary`: GLB) to `path`; a GLB from another format stores
-/// the textures among `images` (file name, bytes) that it names in its buffer.
+/// Write `scene` as glTF (`binary`: GLB) to `path`; a GLB stores the images among
+/// `images` (file name, bytes) that it names by URI in its buffer.
 pub(in crate::io) fn write(
     scene: &Scene,
     path: &Path,
@@ -714,6 +716,9 @@ fn write_with(
         Some(document) => {
             let mut root = document.root.clone();
             let kept = keep_unchanged(document, &mut root, &mut out);
+            if binary {
+                embed_images(&mut root, images, &mut out);
+            }
             (root, kept, document.group_sources())
         }
         None => {
