@@ -283,19 +283,18 @@ pub fn write_with_images(
     match format {
         Format::Obj => {
             scene.check_flattenable().map_err(too_large)?;
-            let library = obj_material_library(scene, path);
-            let beside = |file: &str| path.with_file_name(file);
-            if let Some((file, library)) = &library {
-                let mut files = vec![(beside(file), library.text.clone().into_bytes())];
-                let images = library.images.iter();
-                files.extend(images.map(|(image, bytes)| (beside(image), bytes.clone())));
+            let mut names = None;
+            if let Some((file, library)) = obj_material_library(scene, path) {
+                let beside = |file: &str| path.with_file_name(file);
+                let mut files = vec![(beside(&file), library.text.into_bytes())];
+                let images = library.images.into_iter();
+                files.extend(images.map(|(image, bytes)| (beside(&image), bytes)));
                 side_files::write_beside(&files, path)?;
                 notes.written_beside = files.into_iter().map(|(file, _)| file).collect();
-                notes.not_held.extend(library.not_held.iter().cloned());
+                notes.not_held = library.not_held;
+                names = Some((file, library.names));
             }
-            let names = library
-                .as_ref()
-                .map(|(file, l)| (file.as_str(), &l.names[..]));
+            let names = names.as_ref().map(|(file, n)| (file.as_str(), &n[..]));
             obj::write(scene, path, names).map_err(io_error)?
         }
         Format::Ply => ply::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,

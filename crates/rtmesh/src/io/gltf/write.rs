@@ -716,19 +716,13 @@ fn write_with(
         Some(document) => {
             let mut root = document.root.clone();
             let kept = keep_unchanged(document, &mut root, &mut out);
-            if binary {
-                embed_images(&mut root, images, &mut out);
-            }
             (root, kept, document.group_sources())
         }
-        None => {
-            let mut root = fresh_root(scene);
-            if binary {
-                embed_images(&mut root, images, &mut out);
-            }
-            (root, Vec::new(), Vec::new())
-        }
+        None => (fresh_root(scene), Vec::new(), Vec::new()),
     };
+    if binary {
+        embed_images(&mut root, images, &mut out);
+    }
     let source_meshes = source.map_or(0, |d| d.root.meshes.len());
     let mut other_primitives_written = vec![false; source_meshes];
     let mut meshes = Vec::new();
