@@ -317,6 +317,36 @@ fn a_folder_of_one_file_is_mirrored_into_the_output_folder() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A batch's OUT or report named like a file is refused before any work, rather than
+/// made a folder of that name.
+#[test]
+fn a_batch_refuses_an_output_named_like_a_file() {
+    let dir = temp_dir("batch-file-name");
+    let input = dir.join("in");
+    std::fs::create_dir_all(&input).unwrap();
+    std::fs::write(input.join("one.obj"), QUADS).unwrap();
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let (glb, out, html) = (path("all.glb"), path("out"), path("r.html"));
+    for (extra, option) in [
+        (vec!["-o", &glb], "-o"),
+        (vec!["-o", &out, "--report", &html], "--report"),
+    ] {
+        let mut args = vec!["optimize", input.to_str().unwrap()];
+        args.extend(extra);
+        let out = rtmesh(&args);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{stderr}");
+        assert!(stderr.contains(&format!("error: {option} ")), "{stderr}");
+        assert!(stderr.contains("this names a file"), "{stderr}");
+    }
+    let left: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(left, ["in"], "nothing is made before the error");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn an_output_never_replaces_its_input() {
     let dir = temp_dir("in-place");

@@ -458,6 +458,42 @@ fn what_a_format_cannot_hold_is_named() {
     );
     assert_eq!(not_held("a.ply"), ["materials: 2 (the format holds none)"]);
     assert!(not_held("a.glb").is_empty());
+    // One unnamed node at the identity loses nothing in OBJ; a name or a transform does.
+    let nodes = |notes: &[String]| notes.iter().filter(|n| n.starts_with("nodes")).count();
+    assert_eq!(nodes(&not_held("a.obj")), 0);
+    let gltf = std::fs::read_to_string(input.join("a.gltf")).unwrap();
+    let named = gltf.replace(r#"{"mesh":0}"#, r#"{"mesh":0,"name":"lid"}"#);
+    assert_ne!(named, gltf);
+    std::fs::write(input.join("a.gltf"), named).unwrap();
+    let scene = rtmesh::io::read(&input.join("a.gltf")).unwrap();
+    let notes = rtmesh::io::write(&scene, &out.join("b.obj"))
+        .unwrap()
+        .not_held;
+    assert_eq!(nodes(&notes), 1);
+    assert!(notes.contains(
+        &"nodes: 1 (their tree, names and transforms; the geometry is written in world space)"
+            .to_owned()
+    ));
+}
+
+#[test]
+fn a_one_mesh_format_names_the_geometries_it_merges() {
+    let (input, out) = sandbox("not-held-geometries");
+    let two_groups = "v 0 0 0\nv 1 0 0\nv 0 1 0\ng lid\nf 1 2 3\ng base\nf 1 3 2\n";
+    std::fs::write(input.join("a.obj"), two_groups).unwrap();
+    let scene = rtmesh::io::read(&input.join("a.obj")).unwrap();
+    assert_eq!(scene.instances.len(), 2);
+    let merged = ["geometries: 2 (merged into one mesh, their names with them)"];
+    for file in ["a.ply", "a.stl"] {
+        assert_eq!(
+            rtmesh::io::write(&scene, &out.join(file)).unwrap().not_held,
+            merged
+        );
+    }
+    assert!(rtmesh::io::write(&scene, &out.join("a.obj"))
+        .unwrap()
+        .not_held
+        .is_empty());
 }
 
 #[test]

@@ -21,7 +21,7 @@ use clap::{Parser, Subcommand};
 
 /// Prepare triangle meshes for ray tracing and measure the gain.
 ///
-/// MESH arguments are files (.obj, .ply, .gltf, .glb) or a built-in scene written
+/// MESH arguments are files (.obj, .ply, .gltf, .glb, .stl) or a built-in scene written
 /// `builtin:NAME` (blob, grid, cylinder, room). Every subcommand prints a human
 /// summary, or with --json a JSON report carrying `rtmesh_version` and `schema`.
 #[derive(Parser)]

@@ -246,6 +246,9 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
             .output
             .as_ref()
             .is_some_and(|o| o.is_dir() || o.as_os_str().to_string_lossy().ends_with('/'));
+    if !single {
+        refuse_file_names_for_folders(args, files.len())?;
+    }
     let with_format = |relative: &Path| match &args.format {
         Some(ext) => relative.with_extension(ext),
         None => relative.to_owned(),
@@ -286,6 +289,42 @@ fn plan(args: &Args) -> Result<Vec<Job>> {
     }
     refuse_replacing_inputs(&jobs)?;
     Ok(jobs)
+}
+
+/// One error before any work when a batch's OUT or report folder is named like a file
+/// (`-o all.glb`, `--report r.html`) and is not a folder already: a batch would make a
+/// folder of that name, which is not what the name asks for.
+fn refuse_file_names_for_folders(args: &Args, files: usize) -> Result<()> {
+    let is_mesh = |path: &Path| rtmesh::io::Format::from_path(path).is_ok();
+    let is_html = |path: &Path| {
+        path.extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("html"))
+    };
+    let options = [
+        (
+            &args.output,
+            "-o",
+            "give a folder; --format picks the batch's output format",
+        ),
+        (
+            &args.report,
+            "--report",
+            "give a folder; it gets one report per file and index.html",
+        ),
+    ];
+    for (path, option, hint) in options {
+        let Some(path) = path.as_deref().filter(|p| !p.is_dir()) else {
+            continue;
+        };
+        if is_mesh(path) || is_html(path) {
+            bail!(
+                "{option} {}: a batch is written to a folder that mirrors its inputs ({files} files \
+                 here), and this names a file ({hint})",
+                path.display()
+            );
+        }
+    }
+    Ok(())
 }
 
 /// One error before any work when an output would replace an input of this run: its

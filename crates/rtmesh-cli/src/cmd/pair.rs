@@ -23,7 +23,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// The mesh file, or builtin:NAME.
     mesh: String,
-    /// Write the paired mesh here (.obj, .ply, .gltf or .glb).
+    /// Write the paired mesh here (.obj, .ply, .gltf, .glb or .stl).
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// sah, sah-compressed, window:N, sah-max or max.

@@ -27,7 +27,7 @@ use std::path::PathBuf;
 pub struct Args {
     /// The mesh file, or builtin:NAME.
     mesh: String,
-    /// Write the repaired mesh here (.obj, .ply, .gltf or .glb).
+    /// Write the repaired mesh here (.obj, .ply, .gltf, .glb or .stl).
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Split elongated triangles.

@@ -324,12 +324,17 @@ fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::Mtl
 }
 
 /// What `format` cannot hold of `scene`, in words: vertex attributes past what it
-/// stores, materials, and a glTF document's skins, animations and cameras.
+/// stores, materials, several geometries in a format of one, and a glTF document's
+/// nodes, skins, animations and cameras.
 fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     let held: &[&str] = match format {
         Format::Gltf | Format::Glb => return Vec::new(),
         Format::Obj => &["NORMAL", "TEXCOORD_0", "COLOR_0"],
-        Format::Ply => return document_not_held(scene, true),
+        Format::Ply => {
+            let mut lost: Vec<String> = geometries_not_held(scene).into_iter().collect();
+            lost.extend(document_not_held(scene, true));
+            return lost;
+        }
         Format::Stl => &[],
     };
     let mut attributes: Vec<&str> = Vec::new();
@@ -349,6 +354,9 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     if morph_targets {
         lost.push("morph targets".to_owned());
     }
+    if format == Format::Stl {
+        lost.extend(geometries_not_held(scene));
+    }
     if format == Format::Obj
         && (scene.meshes.iter())
             .filter_map(|m| m.attribute("COLOR_0"))
@@ -360,9 +368,32 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     lost
 }
 
+/// Whether a glTF node holds nothing a flattened output loses: no name, children,
+/// extras or transform other than the identity.
+fn node_is_plain(node: &::gltf::json::Node) -> bool {
+    const IDENTITY: [f32; 16] = [
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    node.name.is_none()
+        && node.extras.is_none()
+        && node.children.as_ref().is_none_or(Vec::is_empty)
+        && node.matrix.is_none_or(|m| m == IDENTITY)
+        && node.translation.is_none_or(|t| t == [0.0; 3])
+        && node.rotation.is_none_or(|r| r.0 == [0.0, 0.0, 0.0, 1.0])
+        && node.scale.is_none_or(|s| s == [1.0; 3])
+}
+
+/// What a format of one mesh (PLY, STL) cannot hold of a scene of several: the
+/// geometries' boundaries and names, merged into one mesh in world space.
+fn geometries_not_held(scene: &Scene) -> Option<String> {
+    let placed = scene.instances.len();
+    (placed > 1)
+        .then(|| format!("geometries: {placed} (merged into one mesh, their names with them)"))
+}
+
 /// What a one-level format cannot hold of the document `scene` was read with:
-/// materials (where `materials` says it holds none) and a glTF's skins, animations and
-/// cameras, counted.
+/// materials (where `materials` says it holds none) and a glTF's nodes, skins,
+/// animations and cameras, counted.
 fn document_not_held(scene: &Scene, materials: bool) -> Vec<String> {
     let mut lost = Vec::new();
     let used = |m: &Material| !m.name.is_empty() || m.mtl.is_some();
@@ -380,6 +411,12 @@ fn document_not_held(scene: &Scene, materials: bool) -> Vec<String> {
         ));
     }
     if let Some(root) = from_gltf {
+        if !root.nodes.iter().all(node_is_plain) {
+            let nodes = root.nodes.len();
+            lost.push(format!(
+                "nodes: {nodes} (their tree, names and transforms; the geometry is written in world space)"
+            ));
+        }
         let counted = [
             (root.skins.len(), "skins"),
             (root.animations.len(), "animations"),
