@@ -32,6 +32,15 @@ morph=crates/rtmesh/tests/fixtures/morph-quad.gltf
 run convert "$morph" "$out/morph.glb"
 run pair "$morph" -o "$out/morph-paired.gltf"
 run repair "$morph" --split-elongated --force-split -o "$out/morph-split.glb" --size 0x0
+# KHR_mesh_quantization (as gltfpack writes it): written back in its integer types,
+# positions as f32 where bisection or motion moved them off the integers.
+quantized=crates/rtmesh/tests/fixtures/quantized-quad.gltf
+run convert "$quantized" "$out/quantized.glb"
+run optimize "$quantized" -o "$out/quantized-optimized.gltf" --size 0x0
+run repair "$quantized" --split-elongated --force-split -o "$out/quantized-split.glb" --size 0x0
+run animate "$quantized" --motion twist --frames 2 -o "$out/quantized-frames"
+run convert "$quantized" "$out/quantized.obj"
+run convert "$out/quantized.obj" "$out/quantized-from-obj.glb"
 run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
 run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
 run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0

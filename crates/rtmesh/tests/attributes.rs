@@ -662,3 +662,175 @@ fn pairs_stay_within_one_material_and_primitive() {
         .count();
     assert!(crossing > 0, "the grid would pair across keys");
 }
+
+/// The accessor of `semantic` on mesh 0's first primitive: its component type and
+/// `normalized`, and its elements' bytes.
+fn primitive_accessor(scene: &Scene, semantic: &str) -> (u32, bool, Vec<u8>) {
+    let document = document(scene);
+    let primitive = &document.root().meshes[0].primitives[0];
+    let (_, index) = (primitive.attributes.iter())
+        .find(|(s, _)| json_of(s) == semantic)
+        .unwrap_or_else(|| panic!("{semantic}"));
+    let accessor = &document.root().accessors[index.value()];
+    let component = json_of(&accessor.component_type).as_u64().unwrap() as u32;
+    (
+        component,
+        accessor.normalized,
+        accessor_data(document, index.value()),
+    )
+}
+
+#[test]
+fn a_quantized_gltf_is_read_as_its_numbers_and_written_back_in_its_types() {
+    // KHR_mesh_quantization as gltfpack writes it: u16 positions scaled by the node,
+    // normalized i8 normals, normalized u16 texture coordinates, i16 morph deltas.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/quantized-quad.gltf");
+    let scene = read(&path).unwrap();
+    let mesh = &scene.meshes[0];
+    assert_eq!(mesh.positions[3], Vec3::new(1000.0, 1000.0, 0.0));
+    let world = scene.instances[0]
+        .transform
+        .transform_point3(mesh.positions[3]);
+    assert!((world - Vec3::new(2.0, 1.0, 0.0)).length() < 1e-6);
+    let normal = mesh.attribute("NORMAL").unwrap();
+    assert_eq!(
+        (normal.vertex(2), normal.value(2, 1)),
+        (vec![0.0, 90.0, 90.0], 90.0 / 127.0)
+    );
+    for format in ["glb", "gltf"] {
+        let back = written(&scene, &format!("quantized.{format}"));
+        assert_same_flat(&back, &scene, format);
+        assert_eq!(
+            document(&back).root().extensions_required,
+            ["KHR_mesh_quantization"]
+        );
+        for semantic in ["POSITION", "NORMAL", "TEXCOORD_0"] {
+            assert_eq!(
+                primitive_accessor(&back, semantic),
+                primitive_accessor(&scene, semantic),
+                "{format} {semantic}: the same type and bytes"
+            );
+        }
+    }
+    // Positions moved off the integers are written as f32, not rounded.
+    let mut moved = scene.clone();
+    moved.meshes[0].positions[1].x = 999.5;
+    let back = written(&moved, "moved.glb");
+    assert_eq!(primitive_accessor(&back, "POSITION").0, 5126);
+    assert_eq!(back.meshes[0].positions, moved.meshes[0].positions);
+    // Formats with no `normalized` flag get the numbers: OBJ's vn and vt, in world space.
+    let dir = temp_dir();
+    write(&scene, &dir.path().join("q.obj")).unwrap();
+    let obj = std::fs::read_to_string(dir.path().join("q.obj")).unwrap();
+    for line in [
+        "v 2 1 0",
+        "vn 0 0 1",
+        "vn 0 0.70710677 0.70710677",
+        "vt 1 0.5000076",
+    ] {
+        assert!(obj.lines().any(|l| l == line), "{line} in\n{obj}");
+    }
+}
+
+#[test]
+fn attributes_a_format_cannot_type_are_written_as_their_numbers() {
+    let typed =
+        |name: &str, normalized: bool, values: rtmesh::mesh::AttributeValues| VertexAttribute {
+            name: name.into(),
+            components: 1,
+            normalized,
+            values,
+            component_names: Vec::new(),
+        };
+    use rtmesh::mesh::AttributeValues as V;
+    let mut mesh = TriMesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
+    mesh.attributes = vec![
+        VertexAttribute {
+            components: 2,
+            ..typed("TEXCOORD_0", true, V::U16(vec![0, 0, 65535, 0, 0, 32768]))
+        },
+        VertexAttribute {
+            components: 4,
+            ..typed(
+                "COLOR_0",
+                true,
+                V::U8(vec![255, 0, 0, 255, 0, 255, 0, 255, 0, 0, 128, 255]),
+            )
+        },
+        typed("_ID", false, V::U32(vec![7, 1 << 20, 3])),
+    ];
+    let scene = Scene::from_mesh(mesh);
+    // The numbers as f32, as the formats without `normalized` hold them.
+    let numbers = |scene: &Scene, name: &str| -> Vec<f32> {
+        let a = scene.meshes[0].attribute(name).unwrap();
+        let k = a.components;
+        (0..a.vertex_count() * k)
+            .map(|i| a.value(i / k, i % k) as f32)
+            .collect()
+    };
+    // PLY: integer colours stay (PLY readers take them for [0, 1]); other normalized
+    // integers become the f32 numbers they stand for.
+    let ply = written(&scene, "typed.ply");
+    let uv = ply.meshes[0].attribute("TEXCOORD_0").unwrap();
+    assert!(matches!(uv.values, V::F32(_)) && !uv.normalized);
+    assert!(matches!(
+        ply.meshes[0].attribute("COLOR_0").unwrap().values,
+        V::U8(_)
+    ));
+    // glTF keeps u32 for indices: the id is written as f32 (exact below 2^24).
+    let gltf = written(&scene, "typed.gltf");
+    assert_eq!(primitive_accessor(&gltf, "_ID").0, 5126);
+    assert_eq!(primitive_accessor(&gltf, "TEXCOORD_0").0, 5123);
+    // (PLY names the custom stream `id`, glTF `_ID`.)
+    for (back, id) in [(&ply, "id"), (&gltf, "_ID")] {
+        for (name, source) in [
+            ("TEXCOORD_0", "TEXCOORD_0"),
+            ("COLOR_0", "COLOR_0"),
+            (id, "_ID"),
+        ] {
+            assert_eq!(numbers(back, name), numbers(&scene, source), "{name}");
+        }
+    }
+}
+
+#[test]
+fn a_required_extension_that_changes_geometry_is_named_and_one_that_does_not_is_read() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/quantized-quad.gltf");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let dir = temp_dir();
+    for (required, readable) in [
+        ("KHR_draco_mesh_compression", false),
+        ("EXT_meshopt_compression", false),
+        ("EXT_mesh_gpu_instancing", false),
+        ("KHR_materials_variants", true),
+        ("KHR_texture_basisu", true),
+    ] {
+        let edited = text.replace(
+            r#""extensionsRequired": [
+  "KHR_mesh_quantization"
+ ]"#,
+            &format!(r#""extensionsRequired": ["KHR_mesh_quantization", "{required}"]"#),
+        );
+        assert_ne!(edited, text);
+        let file = dir.path().join(format!("{required}.gltf"));
+        std::fs::write(&file, edited).unwrap();
+        match read(&file) {
+            Ok(scene) => {
+                assert!(readable, "{required} read");
+                let back = written(&scene, "back.gltf");
+                assert!(document(&back)
+                    .root()
+                    .extensions_required
+                    .contains(&required.to_owned()));
+            }
+            Err(e) => {
+                assert!(!readable, "{required}: {e}");
+                assert!(
+                    e.to_string()
+                        .contains(&format!("requires the extension {required}")),
+                    "{e}"
+                );
+            }
+        }
+    }
+}

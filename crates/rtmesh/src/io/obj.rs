@@ -658,7 +658,7 @@ pub(super) fn write(
                 let coloured: Vec<[f32; 6]> = (mesh.positions.iter().enumerate())
                     .map(|(v, p)| {
                         let [x, y, z] = place(p);
-                        let c = |k: usize| colour.get(v, k.min(colour.components - 1)) as f32;
+                        let c = |k: usize| colour.value(v, k.min(colour.components - 1)) as f32;
                         [x, y, z, c(0), c(1), c(2)]
                     })
                     .collect();
@@ -671,7 +671,7 @@ pub(super) fn write(
         };
         let uv = mesh.attribute("TEXCOORD_0").map(|uv| {
             let values: Vec<[f32; 2]> = (0..mesh.positions.len())
-                .map(|v| [uv.get(v, 0) as f32, uv.get(v, 1) as f32])
+                .map(|v| [uv.value(v, 0) as f32, uv.value(v, 1) as f32])
                 .collect();
             values
         });
@@ -680,7 +680,7 @@ pub(super) fn write(
             None => None,
         };
         let normal = mesh.attribute("NORMAL").map(|n| {
-            let mut n = n.clone();
+            let mut n = n.dequantized().into_owned();
             n.transform(glam::Mat3::from(instance.transform.matrix3));
             let values: Vec<[f32; 3]> = (0..mesh.positions.len())
                 .map(|v| [0, 1, 2].map(|c| n.get(v, c) as f32))

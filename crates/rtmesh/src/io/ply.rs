@@ -499,6 +499,22 @@ fn scalar_type(attribute: &VertexAttribute) -> ScalarType {
     }
 }
 
+/// The attribute as PLY holds its meaning: PLY has no `normalized` flag, and its
+/// readers (rtmesh's among them) take integer colours for [0, 1] and every other
+/// integer as the number it is, so other normalized integers are written as the f32
+/// numbers they stand for.
+fn as_ply_holds(attribute: &VertexAttribute) -> std::borrow::Cow<'_, VertexAttribute> {
+    let integer_colour = attribute.name == "COLOR_0"
+        && matches!(
+            attribute.values,
+            AttributeValues::U8(_) | AttributeValues::U16(_)
+        );
+    match integer_colour {
+        true => std::borrow::Cow::Borrowed(attribute),
+        false => attribute.dequantized(),
+    }
+}
+
 /// Binary little-endian PLY: the header through ply-rs-bw's writer (x, y, z, then
 /// every attribute's components under their PLY names and types), the payload in bulk
 /// in the header's order (per-property callbacks cost several times as much on the
@@ -535,7 +551,8 @@ fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::
     }
     // Morph-target deltas have no PLY meaning without their targets' weights; they
     // are kept like any other attribute, under their own names.
-    for attribute in &mesh.attributes {
+    let attributes: Vec<_> = mesh.attributes.iter().map(as_ply_holds).collect();
+    for attribute in &attributes {
         for name in property_names(attribute) {
             vertex.properties.add(PropertyDef::new(
                 name,
@@ -573,7 +590,7 @@ fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::
         for c in p.to_array() {
             row.extend_from_slice(&c.to_le_bytes());
         }
-        for attribute in &mesh.attributes {
+        for attribute in &attributes {
             attribute.push_vertex_bytes(v, &mut row);
         }
         out.write_all(&row)?;

@@ -71,6 +71,9 @@ macro_rules! map_type {
 trait Scalar: Copy + Default {
     /// True for f32 and f64.
     const FLOAT: bool;
+    /// The stored value that stands for 1 when the stream is normalized (the type's
+    /// largest; 1 for floats), as glTF's `normalized` reads integers.
+    const UNIT: f64;
     fn to_f64(self) -> f64;
     /// Rounded to the nearest for integer types.
     fn from_f64(x: f64) -> Self;
@@ -79,9 +82,10 @@ trait Scalar: Copy + Default {
 }
 
 macro_rules! scalar {
-    ($t:ty, $float:expr) => {
+    ($t:ty, $float:expr, $unit:expr) => {
         impl Scalar for $t {
             const FLOAT: bool = $float;
+            const UNIT: f64 = $unit;
             #[inline]
             fn to_f64(self) -> f64 {
                 self as f64
@@ -101,14 +105,14 @@ macro_rules! scalar {
         }
     };
 }
-scalar!(u8, false);
-scalar!(i8, false);
-scalar!(u16, false);
-scalar!(i16, false);
-scalar!(u32, false);
-scalar!(i32, false);
-scalar!(f32, true);
-scalar!(f64, true);
+scalar!(u8, false, u8::MAX as f64);
+scalar!(i8, false, i8::MAX as f64);
+scalar!(u16, false, u16::MAX as f64);
+scalar!(i16, false, i16::MAX as f64);
+scalar!(u32, false, u32::MAX as f64);
+scalar!(i32, false, i32::MAX as f64);
+scalar!(f32, true, 1.0);
+scalar!(f64, true, 1.0);
 
 /// What an attribute means, which decides how a new vertex gets its value and how a
 /// transform applies. Read from the glTF-style name.
@@ -205,6 +209,73 @@ impl VertexAttribute {
     pub fn get(&self, v: usize, c: usize) -> f64 {
         let i = v * self.components + c;
         each_type!(&self.values, values => values[i].to_f64())
+    }
+
+    /// Component `c` of vertex `v` as the number it stands for: a normalized integer
+    /// mapped to [0, 1] or [−1, 1] by glTF's rule (`max(c / MAX, −1)`), anything else
+    /// as stored.
+    pub fn value(&self, v: usize, c: usize) -> f64 {
+        let i = v * self.components + c;
+        let normalized = self.normalized;
+        each_type!(&self.values, values => unit_value(values[i], normalized))
+    }
+
+    /// The attribute with normalized integers replaced by the f32 numbers they stand
+    /// for ([`VertexAttribute::value`]), for formats that hold no `normalized` flag;
+    /// borrowed when there is nothing to convert.
+    pub fn dequantized(&self) -> std::borrow::Cow<'_, VertexAttribute> {
+        match self.normalized && !matches!(self.values, AttributeValues::F32(_)) {
+            true => std::borrow::Cow::Owned(self.to_f32()),
+            false => std::borrow::Cow::Borrowed(self),
+        }
+    }
+
+    /// The attribute as f32 numbers, each the number its stored value stands for
+    /// ([`VertexAttribute::value`]).
+    pub fn to_f32(&self) -> VertexAttribute {
+        let k = self.components;
+        let values = (0..self.vertex_count() * k).map(|i| self.value(i / k, i % k) as f32);
+        VertexAttribute {
+            normalized: false,
+            values: AttributeValues::F32(values.collect()),
+            ..self.emptied()
+        }
+    }
+
+    /// The attribute in `like`'s stored type and `normalized` flag (its values are not
+    /// used), if every value comes back exactly as the f32 number it is here: how a
+    /// stream read quantized and dequantized (glTF's `KHR_mesh_quantization`) is written
+    /// back in its own type. `None` when some value is not held exactly there.
+    pub fn stored_as(&self, like: &VertexAttribute) -> Option<VertexAttribute> {
+        fn requantize<T: Scalar>(
+            _: &[T],
+            from: &VertexAttribute,
+            normalized: bool,
+        ) -> (Vec<T>, bool) {
+            let k = from.components;
+            let mut exact = true;
+            let scale = if normalized { T::UNIT } else { 1.0 };
+            let values = (0..from.vertex_count() * k)
+                .map(|i| {
+                    let x = from.value(i / k, i % k) as f32;
+                    let stored = T::from_f64(x as f64 * scale);
+                    exact &= unit_value(stored, normalized) as f32 == x;
+                    stored
+                })
+                .collect();
+            (values, exact)
+        }
+        let mut exact = true;
+        let values = map_type!(&like.values, kind => {
+            let (values, held) = requantize(kind, self, like.normalized);
+            exact &= held;
+            values
+        });
+        exact.then(|| VertexAttribute {
+            normalized: like.normalized,
+            values,
+            ..self.emptied()
+        })
     }
 
     /// The components of vertex `v` as f64.
@@ -306,7 +377,8 @@ impl VertexAttribute {
                 .map(|c| 0.5 * (values[a * k + c].to_f64() + values[b * k + c].to_f64()))
                 .collect();
             if let Some(n) = unit {
-                let length = mid[..n].iter().map(|x| x * x).sum::<f64>().sqrt();
+                // A normalized integer's unit vector has length T::UNIT as stored.
+                let length = mid[..n].iter().map(|x| x * x).sum::<f64>().sqrt() / T::UNIT;
                 if length > 0.0 {
                     mid[..n].iter_mut().for_each(|x| *x /= length);
                 }
@@ -349,7 +421,9 @@ impl VertexAttribute {
 
     /// Bake `linear` (the linear part of an object-to-world transform) into normals
     /// and tangents: normals by its inverse transpose, tangents by itself, both
-    /// renormalized. Other semantics are left alone. Only f32 streams are turned.
+    /// renormalized. Other semantics are left alone. Float and normalized integer
+    /// streams are turned (integers rounded back to their type); plain integers, which
+    /// stand for no direction, are not.
     pub fn transform(&mut self, linear: Mat3) {
         let matrix = match self.semantic() {
             Semantic::Normal => linear.inverse().transpose(),
@@ -359,14 +433,20 @@ impl VertexAttribute {
         if matrix == Mat3::IDENTITY || self.components < 3 {
             return;
         }
-        let k = self.components;
-        if let AttributeValues::F32(values) = &mut self.values {
+        fn turn<T: Scalar>(values: &mut [T], k: usize, matrix: Mat3, normalized: bool) {
+            if !T::FLOAT && !normalized {
+                return;
+            }
             for vertex in values.chunks_exact_mut(k) {
-                let turned =
-                    (matrix * Vec3::new(vertex[0], vertex[1], vertex[2])).normalize_or_zero();
-                vertex[..3].copy_from_slice(&turned.to_array());
+                let [x, y, z] = [0, 1, 2].map(|c| unit_value(vertex[c], normalized) as f32);
+                let turned = (matrix * Vec3::new(x, y, z)).normalize_or_zero();
+                for (stored, t) in vertex.iter_mut().zip(turned.to_array()) {
+                    *stored = T::from_f64(t as f64 * T::UNIT);
+                }
             }
         }
+        let (k, normalized) = (self.components, self.normalized);
+        each_type!(&mut self.values, values => turn(values, k, matrix, normalized))
     }
 
     /// Append vertex `v`'s bytes (for hashing whole vertices when welding).
@@ -382,6 +462,14 @@ impl VertexAttribute {
 
 fn is_float<T: Scalar>(_: &[T]) -> bool {
     T::FLOAT
+}
+
+/// The number `x` stands for (see [`VertexAttribute::value`]).
+fn unit_value<T: Scalar>(x: T, normalized: bool) -> f64 {
+    match normalized && !T::FLOAT {
+        true => (x.to_f64() / T::UNIT).max(-1.0),
+        false => x.to_f64(),
+    }
 }
 
 /// The streams of `attributes` gathered by `sources` (new vertex `i` is old vertex
@@ -435,6 +523,96 @@ mod tests {
         assert_eq!(b.vertex(4), vec![0.0, 1.0, 0.0]);
         b.push_zeros(1);
         assert_eq!(b.vertex(5), vec![0.0; 3]);
+    }
+
+    fn normal_i8(values: Vec<i8>) -> VertexAttribute {
+        VertexAttribute {
+            name: "NORMAL".into(),
+            components: 3,
+            normalized: true,
+            values: AttributeValues::I8(values),
+            component_names: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn normalized_integers_stand_for_numbers_by_gltfs_rule() {
+        let normal = normal_i8(vec![127, 0, -128, 0, 90, 90]);
+        // max(c / 127, −1): −128 stands for −1 as −127 does.
+        assert_eq!(normal.vertex(0), vec![127.0, 0.0, -128.0]);
+        assert_eq!(normal.value(0, 0), 1.0);
+        assert_eq!(normal.value(0, 2), -1.0);
+        assert_eq!(normal.value(1, 1), 90.0 / 127.0);
+        let AttributeValues::F32(numbers) = normal.dequantized().into_owned().values else {
+            panic!("dequantized to f32")
+        };
+        assert_eq!(
+            numbers,
+            [1.0, 0.0, -1.0, 0.0, 90.0 / 127.0, 90.0 / 127.0].map(|x| x as f32)
+        );
+        // Plain integers and floats are the numbers they are.
+        let uv = VertexAttribute {
+            normalized: false,
+            ..normal_i8(vec![5, 6, 7])
+        };
+        assert!(matches!(uv.dequantized(), std::borrow::Cow::Borrowed(_)));
+        assert_eq!(uv.to_f32().vertex(0), vec![5.0, 6.0, 7.0]);
+    }
+
+    #[test]
+    fn numbers_go_back_to_their_stored_type_only_when_exact() {
+        let stored = normal_i8(vec![127, 0, -127, 0, 90, 90]);
+        let numbers = stored.to_f32();
+        let back = numbers.stored_as(&stored.emptied()).expect("held exactly");
+        assert_eq!(back, stored);
+        let mut moved = numbers.clone();
+        if let AttributeValues::F32(v) = &mut moved.values {
+            v[4] = 0.5;
+        }
+        assert_eq!(moved.stored_as(&stored.emptied()), None);
+        // Unnormalized u16 positions: integers only, within range.
+        let like = VertexAttribute {
+            name: "POSITION".into(),
+            components: 3,
+            normalized: false,
+            values: AttributeValues::U16(Vec::new()),
+            component_names: Vec::new(),
+        };
+        let whole = VertexAttribute::from_f32("POSITION", &[[0.0, 1000.0, 65535.0]]);
+        assert_eq!(
+            whole.stored_as(&like).unwrap().values,
+            AttributeValues::U16(vec![0, 1000, 65535])
+        );
+        for bad in [
+            [0.5, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [65536.0, 0.0, 0.0],
+            [f32::NAN, 0.0, 0.0],
+        ] {
+            assert_eq!(
+                VertexAttribute::from_f32("POSITION", &[bad]).stored_as(&like),
+                None,
+                "{bad:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn normalized_normals_are_turned_and_interpolated_as_unit_vectors() {
+        let mut normal = normal_i8(vec![127, 0, 0, 0, 127, 0]);
+        normal.push_midpoint(0, 1);
+        // Halfway: (1, 1, 0) / √2, stored as 127 / √2 ≈ 89.8 → 90.
+        assert_eq!(normal.vertex(2), vec![90.0, 90.0, 0.0]);
+        normal.transform(Mat3::from_rotation_z(std::f32::consts::FRAC_PI_2));
+        assert_eq!(normal.vertex(0), vec![0.0, 127.0, 0.0]);
+        assert_eq!(normal.vertex(1), vec![-127.0, 0.0, 0.0]);
+        // Plain integers stand for no direction and are left alone.
+        let mut plain = VertexAttribute {
+            normalized: false,
+            ..normal_i8(vec![1, 0, 0])
+        };
+        plain.transform(Mat3::from_rotation_z(std::f32::consts::FRAC_PI_2));
+        assert_eq!(plain.vertex(0), vec![1.0, 0.0, 0.0]);
     }
 
     #[test]

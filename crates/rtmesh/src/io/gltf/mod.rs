@@ -53,8 +53,9 @@ pub(super) fn read<R: BufRead>(
     let unvalidated = gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|e| MeshError::invalid(path, e.to_string()))?;
     check_unvalidated_references(unvalidated.as_json()).map_err(|e| MeshError::invalid(path, e))?;
-    let gltf::Gltf { document, blob } =
-        gltf::Gltf::from_slice(&bytes).map_err(|e| MeshError::invalid(path, e.to_string()))?;
+    let gltf::Gltf { document, blob } = unvalidated;
+    let document = validated(document).map_err(|e| MeshError::invalid(path, e))?;
+    let quantized = document.extensions_used().any(|e| e == QUANTIZATION);
     let buffers = read_buffers(path, &document, blob, root)?;
     let mut budget = ReadBudget::new(buffers.iter().map(|b| b.0.len()).sum());
 
@@ -108,10 +109,19 @@ pub(super) fn read<R: BufRead>(
                 position_accessor.data_type(),
                 position_accessor.dimensions(),
             );
-            if position_type != (DataType::F32, Dimensions::Vec3) {
+            let integer = matches!(
+                position_type.0,
+                DataType::I8 | DataType::U8 | DataType::I16 | DataType::U16
+            );
+            if position_type != (DataType::F32, Dimensions::Vec3)
+                && !(quantized && integer && position_type.1 == Dimensions::Vec3)
+            {
                 return Err(MeshError::invalid(
                     path,
-                    context("POSITION must be a float VEC3 accessor"),
+                    context(match quantized {
+                        true => "POSITION must be a float, byte or short VEC3 accessor",
+                        false => "POSITION must be a float VEC3 accessor (integers need KHR_mesh_quantization)",
+                    }),
                 ));
             }
             if let Some(indices) = primitive.indices() {
@@ -161,9 +171,23 @@ pub(super) fn read<R: BufRead>(
                             context("its vertices")
                         })
                         .map_err(|e| MeshError::invalid(path, e))?;
-                    let positions = data
-                        .read_positions()
-                        .ok_or_else(|| MeshError::invalid(path, context("unreadable POSITION")))?;
+                    let positions: Vec<Vec3> = match position_type.0 {
+                        DataType::F32 => (data.read_positions())
+                            .ok_or_else(|| {
+                                MeshError::invalid(path, context("unreadable POSITION"))
+                            })?
+                            .map(Vec3::from_array)
+                            .collect(),
+                        // Quantized: the numbers the integers stand for.
+                        _ => {
+                            let stored = read_attribute("POSITION", &position_accessor, &buffers)
+                                .map_err(|e| MeshError::invalid(path, context(&e)))?;
+                            let AttributeValues::F32(numbers) = stored.to_f32().values else {
+                                unreachable!("to_f32 gives f32")
+                            };
+                            numbers.chunks_exact(3).map(Vec3::from_slice).collect()
+                        }
+                    };
                     let mut read = Vec::with_capacity(streams.len());
                     for (name, accessor) in &streams {
                         let attribute = read_attribute(name, accessor, &buffers)
@@ -179,7 +203,7 @@ pub(super) fn read<R: BufRead>(
                         }
                         read.push(attribute);
                     }
-                    out.extend_vertices(positions.map(Vec3::from_array), read);
+                    out.extend_vertices(positions.into_iter(), read);
                     shared = Some((signature, base));
                     base
                 }
@@ -270,6 +294,44 @@ impl GltfDocument {
 }
 
 /// The values of a vertex attribute accessor (checked first), in its stored type.
+/// `KHR_mesh_quantization`: integer positions, normals, tangents and texture
+/// coordinates, read as the numbers they stand for and written back in their type.
+pub(super) const QUANTIZATION: &str = "KHR_mesh_quantization";
+
+/// Whether a required extension leaves the geometry alone (materials, textures,
+/// lights), so that rtmesh may trace a file that requires it: the document keeps it,
+/// and writes it back, whether or not the gltf crate knows it.
+fn leaves_geometry_alone(extension: &str) -> bool {
+    ["KHR_materials_", "KHR_texture_", "EXT_texture_"]
+        .iter()
+        .any(|prefix| extension.starts_with(prefix))
+        || matches!(extension, "KHR_lights_punctual" | "MSFT_texture_dds")
+}
+
+/// The document validated by the gltf crate, except that the extensions it may
+/// require are rtmesh's rule, not the crate's: `KHR_mesh_quantization` (read here)
+/// and those that leave the geometry alone ([`leaves_geometry_alone`]); any other
+/// (Draco or meshopt compression, GPU instancing) is an error naming it, since
+/// tracing without it would measure the wrong geometry.
+fn validated(document: gltf::Document) -> Result<gltf::Document, String> {
+    let mut json = document.into_json();
+    if let Some(unknown) = (json.extensions_required.iter())
+        .find(|e| e.as_str() != QUANTIZATION && !leaves_geometry_alone(e))
+    {
+        return Err(format!(
+            "the file requires the extension {unknown}, which rtmesh cannot read (of the \
+             extensions that change geometry it reads {QUANTIZATION}); write the file without \
+             it first"
+        ));
+    }
+    let required = std::mem::take(&mut json.extensions_required);
+    let mut json = gltf::Document::from_json(json)
+        .map_err(|e| e.to_string())?
+        .into_json();
+    json.extensions_required = required;
+    Ok(gltf::Document::from_json_without_validation(json))
+}
+
 fn read_attribute(
     name: &str,
     accessor: &gltf::Accessor,

@@ -18,7 +18,7 @@
 //! renormalized (zero ones point along +z), and skin weights must sum to one: float
 //! weights that do not are scaled so that they do; both are counted.
 
-use super::GltfDocument;
+use super::{GltfDocument, QUANTIZATION};
 use crate::io::{Document, WriteNotes};
 use crate::mesh::{AttributeValues, Scene, Semantic, TriMesh, VertexAttribute, MORPH_PREFIX};
 use glam::{Affine3A, Mat4, Vec3};
@@ -274,12 +274,44 @@ fn with_normalized_weights(mesh: &TriMesh) -> (Cow<'_, TriMesh>, usize) {
     (Cow::Owned(out), changed)
 }
 
-/// The attribute as glTF can hold it: unit normals and tangents (xyz) and ±1 tangent
-/// handedness, finite floats; returns it and how many vertices changed.
-fn writable(attribute: &VertexAttribute) -> (Cow<'_, VertexAttribute>, usize) {
+/// Whether glTF (with `KHR_mesh_quantization` where `quantized`) holds `attribute`'s
+/// stored type under its semantic: float everywhere; for texture coordinates, colours
+/// and weights unsigned bytes and shorts normalized; for joints unsigned bytes and
+/// shorts; with the extension, the signed and unnormalized types it adds; for
+/// application-specific attributes any type but unsigned int, which glTF keeps for
+/// indices.
+fn type_held(attribute: &VertexAttribute, quantized: bool) -> bool {
+    use AttributeValues as V;
+    let normalized = attribute.normalized;
+    match (attribute.semantic(), &attribute.values) {
+        // rtmesh writes these as f32 (glTF has no such component types).
+        (_, V::F32(_) | V::I32(_) | V::F64(_)) => true,
+        (_, V::U32(_)) => false,
+        (Semantic::Custom | Semantic::Joints, _) => true,
+        (Semantic::TexCoord | Semantic::Color | Semantic::Weights, V::U8(_) | V::U16(_))
+            if normalized =>
+        {
+            true
+        }
+        (Semantic::TexCoord, _) => quantized,
+        (Semantic::Normal | Semantic::Tangent, V::I8(_) | V::I16(_)) => quantized && normalized,
+        (Semantic::MorphDelta, V::I8(_) | V::I16(_)) => quantized,
+        _ => false,
+    }
+}
+
+/// The attribute as glTF can hold it: a stored type glTF holds for its semantic
+/// ([`type_held`]; others as the f32 numbers they stand for), unit normals and
+/// tangents (xyz) and ±1 tangent handedness, finite floats; returns it and how many
+/// vertices changed in value.
+fn writable(attribute: &VertexAttribute, quantized: bool) -> (Cow<'_, VertexAttribute>, usize) {
+    let attribute = match type_held(attribute, quantized) {
+        true => Cow::Borrowed(attribute),
+        false => Cow::Owned(attribute.to_f32()),
+    };
     let unit = matches!(attribute.semantic(), Semantic::Normal | Semantic::Tangent);
     let AttributeValues::F32(values) = &attribute.values else {
-        return (Cow::Borrowed(attribute), 0);
+        return (attribute, 0);
     };
     let k = attribute.components;
     let bad = |e: &[f32]| {
@@ -288,9 +320,9 @@ fn writable(attribute: &VertexAttribute) -> (Cow<'_, VertexAttribute>, usize) {
             || (unit && k == 4 && e[3].abs() != 1.0)
     };
     if !values.chunks_exact(k).any(bad) {
-        return (Cow::Borrowed(attribute), 0);
+        return (attribute, 0);
     }
-    let mut out = attribute.clone();
+    let mut out = attribute.into_owned();
     let mut changed = 0;
     if let AttributeValues::F32(values) = &mut out.values {
         for e in values.chunks_exact_mut(k) {
@@ -326,6 +358,41 @@ fn gltf_name(attribute: &VertexAttribute) -> String {
 
 fn semantic(name: &str) -> Checked<json::mesh::Semantic> {
     serde_json::from_value(value!(name)).unwrap_or(Checked::Invalid)
+}
+
+/// The stored type of source mesh `m`'s positions where its first triangle primitive
+/// holds them quantized (`KHR_mesh_quantization`), as an empty stream of that type.
+fn quantized_positions(document: &GltfDocument, m: usize) -> Option<VertexAttribute> {
+    use json::accessor::ComponentType as C;
+    let root = &document.root;
+    let primitive = root
+        .meshes
+        .get(m)?
+        .primitives
+        .iter()
+        .find(|p| is_triangles(p))?;
+    let position = primitive
+        .attributes
+        .get(&Checked::Valid(json::mesh::Semantic::Positions))?;
+    let accessor = root.accessors.get(position.value())?;
+    let values = match accessor.component_type {
+        Checked::Valid(json::accessor::GenericComponentType(C::I8)) => AttributeValues::I8(vec![]),
+        Checked::Valid(json::accessor::GenericComponentType(C::U8)) => AttributeValues::U8(vec![]),
+        Checked::Valid(json::accessor::GenericComponentType(C::I16)) => {
+            AttributeValues::I16(vec![])
+        }
+        Checked::Valid(json::accessor::GenericComponentType(C::U16)) => {
+            AttributeValues::U16(vec![])
+        }
+        _ => return None,
+    };
+    Some(VertexAttribute {
+        name: "POSITION".to_owned(),
+        components: 3,
+        normalized: accessor.normalized,
+        values,
+        component_names: Vec::new(),
+    })
 }
 
 fn is_triangles(primitive: &json::mesh::Primitive) -> bool {
@@ -642,30 +709,44 @@ struct Streams<'a> {
     accessor: Vec<Option<Index<json::Accessor>>>,
     position: Option<Index<json::Accessor>>,
     changed: usize,
+    /// The output declares `KHR_mesh_quantization`.
+    quantized: bool,
+    /// The stored type of the source's quantized positions (an empty stream of it).
+    position_stored: Option<VertexAttribute>,
 }
 
 impl<'a> Streams<'a> {
-    fn new(mesh: &'a TriMesh) -> Self {
+    fn new(mesh: &'a TriMesh, quantized: bool, position_stored: Option<VertexAttribute>) -> Self {
         Self {
             mesh,
             accessor: vec![None; mesh.attributes.len()],
             position: None,
             changed: 0,
+            quantized,
+            position_stored,
         }
     }
 
+    /// The positions, in the source's quantized type where every one is held there
+    /// exactly (as read, reordered or welded), else as f32 (moved by a repair or an
+    /// animation).
     fn position(&mut self, out: &mut Output) -> Index<json::Accessor> {
         *self.position.get_or_insert_with(|| {
             let positions: Vec<[f32; 3]> =
                 self.mesh.positions.iter().map(|p| p.to_array()).collect();
-            out.attribute(&VertexAttribute::from_f32("POSITION", &positions))
+            let float = VertexAttribute::from_f32("POSITION", &positions);
+            let stored = self
+                .position_stored
+                .as_ref()
+                .and_then(|like| float.stored_as(like));
+            out.attribute(stored.as_ref().unwrap_or(&float))
         })
     }
 
     fn stream(&mut self, out: &mut Output, name: &str) -> Option<Index<json::Accessor>> {
         let s = self.mesh.attributes.iter().position(|a| a.name == name)?;
         if self.accessor[s].is_none() {
-            let (attribute, changed) = writable(&self.mesh.attributes[s]);
+            let (attribute, changed) = writable(&self.mesh.attributes[s], self.quantized);
             self.changed += changed;
             self.accessor[s] = Some(out.attribute(&attribute));
         }
@@ -723,6 +804,7 @@ fn write_with(
     if binary {
         embed_images(&mut root, images, &mut out);
     }
+    let quantized = root.extensions_used.iter().any(|e| e == QUANTIZATION);
     let source_meshes = source.map_or(0, |d| d.root.meshes.len());
     let mut other_primitives_written = vec![false; source_meshes];
     let mut meshes = Vec::new();
@@ -739,7 +821,10 @@ fn write_with(
             false => from_group(0).map(|(m, _)| m),
             true => (source.is_some() && scene.meshes.len() == source_meshes).then_some(index),
         };
-        let mut streams = Streams::new(&mesh);
+        let position_stored = source
+            .zip(source_mesh)
+            .and_then(|(d, m)| quantized_positions(d, m));
+        let mut streams = Streams::new(&mesh, quantized, position_stored);
         let mut primitives = Vec::new();
         // Each primitive's strips, joined (a strip never spans two primitives).
         let strip_lists = strips.and_then(|all| all.get(index)).map(|strips| {
