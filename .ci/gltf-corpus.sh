@@ -41,6 +41,9 @@ run repair "$quantized" --split-elongated --force-split -o "$out/quantized-split
 run animate "$quantized" --motion twist --frames 2 -o "$out/quantized-frames"
 run convert "$quantized" "$out/quantized.obj"
 run convert "$out/quantized.obj" "$out/quantized-from-obj.glb"
+# A morph target in a sparse accessor over zeros, as Blender writes shape keys: written dense.
+run convert crates/rtmesh/tests/fixtures/sparse-morph.gltf "$out/sparse-morph.glb"
+run repair crates/rtmesh/tests/fixtures/sparse-morph.gltf --split-elongated --force-split -o "$out/sparse-morph-split.gltf" --size 0x0
 run repair "$data/spot.obj" --split-elongated --force-split -o "$out/spot-split.glb" --size 0x0
 run repair "$data/sponza_dabrovic.obj" --split-scattered --merge-overlapping -o "$out/sponza-regrouped.glb" --size 0x0 2> /dev/null
 run repair "$data/2CylinderEngine.glb" --split-scattered --merge-overlapping -o "$out/engine-regrouped.gltf" --size 0x0

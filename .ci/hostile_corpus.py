@@ -164,6 +164,34 @@ write("amp-channels.gltf", scene_doc(
     [{"primitives": [{"attributes": {"POSITION": 0}}]}], [{"mesh": 0}],
     animations=[{"samplers": [{"input": 1, "output": 2}],
                  "channels": [{"sampler": 0, "target": {"node": 0, "path": "translation"}}] * 4000}]))
+# Sparse accessors (as Blender writes shape keys): substitutions past the elements, more
+# substitutions than elements, and zeros for 100 M vertices out of a few bytes (refused
+# by the read budget, not allocated).
+def sparse_doc(count, sparse_count, index):
+    data = corners + struct.pack("<2H", index, 0) + struct.pack("<3f", 0, 0, 0.5)
+    views = [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 4},
+             {"buffer": 0, "byteOffset": 40, "byteLength": 12}]
+    accessors = [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                 {"componentType": 5126, "count": count, "type": "VEC3",
+                  "sparse": {"count": sparse_count, "indices": {"bufferView": 1, "componentType": 5123},
+                             "values": {"bufferView": 2}}}]
+    return scene_doc(data, views, accessors,
+                     [{"primitives": [{"attributes": {"POSITION": 0}, "targets": [{"POSITION": 1}]}]}], [{"mesh": 0}])
+write("ok-sparse-morph.gltf", sparse_doc(3, 1, 1))
+write("error-sparse-index-past.gltf", sparse_doc(3, 1, 7))
+write("error-sparse-count.gltf", sparse_doc(3, 4_000_000_000, 1))
+write("error-sparse-zeros-amplified.gltf", sparse_doc(100_000_000, 1, 1))
+amplified = json.loads(sparse_doc(100_000_000, 1, 1))
+amplified["accessors"][1].update({"min": [0, 0, 0], "max": [0, 0, 0.5]})
+amplified["meshes"][0]["primitives"][0] = {"attributes": {"POSITION": 1}}
+write("error-sparse-positions-amplified.gltf", json.dumps(amplified))
+# Integer positions without KHR_mesh_quantization, which alone allows them.
+write("error-gltf-integer-positions.gltf", scene_doc(
+    struct.pack("<9h3h", 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0),
+    [{"buffer": 0, "byteLength": 24}],
+    [{"bufferView": 0, "componentType": 5122, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+    [{"primitives": [{"attributes": {"POSITION": 0}}]}], [{"mesh": 0}]))
+
 # One 2 MB material library (100,000 materials) named 2,000 times, and by 40 spellings
 # of its path (92 MB: past the 16 MiB that an OBJ's libraries may hold together).
 write("library.mtl", "".join(f"newmtl m{k}\nKd 1 0 0\n" for k in range(100_000)))

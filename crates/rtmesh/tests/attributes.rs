@@ -834,3 +834,74 @@ fn a_required_extension_that_changes_geometry_is_named_and_one_that_does_not_is_
         }
     }
 }
+
+/// A triangle whose POSITION is sparse over a base view (vertex 2 lifted to z = 0.25)
+/// and whose morph target is sparse over zeros (vertex 1 moved by 0.5 in z), as
+/// Blender writes shape keys; `sparse_index` is the morph target's one index.
+fn sparse_gltf(dir: &Path, sparse_index: u16) -> std::path::PathBuf {
+    let mut bin: Vec<u8> = Vec::new();
+    for x in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        bin.extend(x.to_le_bytes());
+    }
+    // 36: the indices of both substitutions (u16, padded), 40: POSITION's value,
+    // 52: the target's value.
+    bin.extend([2u16, sparse_index].iter().flat_map(|i| i.to_le_bytes()));
+    for x in [0.0f32, 1.0, 0.25, 0.0, 0.0, 0.5] {
+        bin.extend(x.to_le_bytes());
+    }
+    std::fs::write(dir.join("sparse.bin"), &bin).unwrap();
+    let sparse = |indices: usize, values: usize| {
+        serde_json::json!({"count": 1, "indices": {"bufferView": indices, "componentType": 5123},
+            "values": {"bufferView": values}})
+    };
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": "sparse.bin", "byteLength": bin.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 2},
+            {"buffer": 0, "byteOffset": 38, "byteLength": 2},
+            {"buffer": 0, "byteOffset": 40, "byteLength": 12},
+            {"buffer": 0, "byteOffset": 52, "byteLength": 12}
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 0.25], "sparse": sparse(1, 3)},
+            {"componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0, 0, 0], "max": [0, 0, 0.5], "sparse": sparse(2, 4)}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "targets": [{"POSITION": 1}]}],
+                    "weights": [1.0]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0
+    });
+    let path = dir.join("sparse.gltf");
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    path
+}
+
+#[test]
+fn sparse_accessors_are_read_with_their_substitutions() {
+    let dir = temp_dir();
+    let scene = read(&sparse_gltf(dir.path(), 1)).unwrap_or_else(|e| panic!("{e}"));
+    let mesh = &scene.meshes[0];
+    assert_eq!(
+        mesh.positions,
+        [Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, 0.25)]
+    );
+    let delta = mesh.attribute("target0:POSITION").unwrap();
+    assert_eq!(
+        (0..3).map(|v| delta.vertex(v)).collect::<Vec<_>>(),
+        [vec![0.0; 3], vec![0.0, 0.0, 0.5], vec![0.0; 3]]
+    );
+    // Written dense, the same numbers come back.
+    let back = written(&scene, "dense.glb");
+    assert_same_flat(&back, &scene, "glb");
+    // A substitution past the elements is an error naming it.
+    let error = read(&sparse_gltf(dir.path(), 3)).unwrap_err().to_string();
+    assert!(
+        error.contains("sparse index 3 (entry 0) is past its 3 elements"),
+        "{error}"
+    );
+}

@@ -20,6 +20,7 @@ use crate::mesh::{
 };
 use glam::{Affine3A, DMat4, Mat4, Vec3};
 use gltf::mesh::Mode;
+use std::borrow::Cow;
 use std::io::BufRead;
 use std::path::Path;
 
@@ -171,15 +172,17 @@ pub(super) fn read<R: BufRead>(
                             context("its vertices")
                         })
                         .map_err(|e| MeshError::invalid(path, e))?;
-                    let positions: Vec<Vec3> = match position_type.0 {
-                        DataType::F32 => (data.read_positions())
+                    let dense_f32 =
+                        position_type.0 == DataType::F32 && position_accessor.sparse().is_none();
+                    let positions: Vec<Vec3> = match dense_f32 {
+                        true => (data.read_positions())
                             .ok_or_else(|| {
                                 MeshError::invalid(path, context("unreadable POSITION"))
                             })?
                             .map(Vec3::from_array)
                             .collect(),
-                        // Quantized: the numbers the integers stand for.
-                        _ => {
+                        // Sparse or quantized: the numbers the values stand for.
+                        false => {
                             let stored = read_attribute("POSITION", &position_accessor, &buffers)
                                 .map_err(|e| MeshError::invalid(path, context(&e)))?;
                             let AttributeValues::F32(numbers) = stored.to_f32().values else {
@@ -190,8 +193,7 @@ pub(super) fn read<R: BufRead>(
                     };
                     let mut read = Vec::with_capacity(streams.len());
                     for (name, accessor) in &streams {
-                        let attribute = read_attribute(name, accessor, &buffers)
-                            .map_err(|e| MeshError::invalid(path, context(&e)))?;
+                        // Counted before reading: the budget was taken for `count`.
                         if accessor.count() != count {
                             return Err(MeshError::invalid(
                                 path,
@@ -201,6 +203,8 @@ pub(super) fn read<R: BufRead>(
                                 )),
                             ));
                         }
+                        let attribute = read_attribute(name, accessor, &buffers)
+                            .map_err(|e| MeshError::invalid(path, context(&e)))?;
                         read.push(attribute);
                     }
                     out.extend_vertices(positions.into_iter(), read);
@@ -351,16 +355,52 @@ fn read_attribute(
             ))
         }
     };
-    let view = accessor.view().expect("checked: the accessor has a view");
-    let data = &buffers[view.buffer().index()].0;
     let size = accessor.data_type().size();
     let element = size * components;
-    let stride = view.stride().unwrap_or(element);
-    let start = view.offset() + accessor.offset();
-    let bytes = (0..accessor.count()).flat_map(|i| {
-        let at = start + i * stride;
-        data[at..at + element].chunks_exact(size)
-    });
+    let count = accessor.count();
+    // The elements packed: borrowed where the view packs them already, else gathered
+    // (or zeros, for a sparse accessor without a view), then the sparse substitutions.
+    let mut bytes: Cow<[u8]> = match accessor.view() {
+        Some(view) => {
+            let data = &buffers[view.buffer().index()].0;
+            let stride = view.stride().unwrap_or(element);
+            let start = view.offset() + accessor.offset();
+            match stride == element {
+                true => Cow::Borrowed(&data[start..start + count * element]),
+                false => Cow::Owned(
+                    (0..count)
+                        .flat_map(|i| &data[start + i * stride..start + i * stride + element])
+                        .copied()
+                        .collect(),
+                ),
+            }
+        }
+        None => Cow::Owned(vec![0; count * element]),
+    };
+    if let Some(sparse) = accessor.sparse() {
+        let dense = bytes.to_mut();
+        let (indices, values) = (sparse.indices(), sparse.values());
+        let index_size = sparse_index_size(&indices);
+        let index_data = &buffers[indices.view().buffer().index()].0;
+        let index_start = indices.view().offset() + indices.offset();
+        let value_data = &buffers[values.view().buffer().index()].0;
+        let value_start = values.view().offset() + values.offset();
+        for k in 0..sparse.count() {
+            let at = index_start + k * index_size;
+            let index = (index_data[at..at + index_size].iter().rev())
+                .fold(0usize, |n, &b| n << 8 | b as usize);
+            if index >= count {
+                return Err(format!(
+                    "accessor {}: sparse index {index} (entry {k}) is past its {count} elements",
+                    accessor.index()
+                ));
+            }
+            let from = value_start + k * element;
+            dense[index * element..(index + 1) * element]
+                .copy_from_slice(&value_data[from..from + element]);
+        }
+    }
+    let bytes = bytes.chunks_exact(size);
     macro_rules! typed {
         ($variant:ident, $t:ty) => {
             AttributeValues::$variant(
@@ -597,7 +637,7 @@ impl ReadBudget {
             }
             None => Err(format!(
                 "{}: {bytes} more bytes of accessor data would pass the {} this file may read \
-                 (twice its buffers, plus 16 MiB): the same accessors are used over and over",
+                 (twice its buffers, plus 16 MiB): accessors used over and over, or sparse ones over zeros",
                 what(),
                 self.limit
             )),
@@ -605,16 +645,21 @@ impl ReadBudget {
     }
 }
 
-pub(crate) fn check_accessor<B: std::ops::Deref<Target = [u8]>>(
-    accessor: &gltf::Accessor,
+/// Bytes per index of a sparse accessor's indices.
+fn sparse_index_size(indices: &gltf::accessor::sparse::Indices) -> usize {
+    use gltf::accessor::sparse::IndexType;
+    match indices.index_type() {
+        IndexType::U8 => 1,
+        IndexType::U16 => 2,
+        IndexType::U32 => 4,
+    }
+}
+
+/// A buffer view lies within its buffer.
+fn check_view<B: std::ops::Deref<Target = [u8]>>(
+    view: &gltf::buffer::View,
     buffers: &[B],
 ) -> Result<(), String> {
-    if accessor.sparse().is_some() {
-        return Err("sparse accessors are not supported".into());
-    }
-    let Some(view) = accessor.view() else {
-        return Err(format!("accessor {} has no buffer view", accessor.index()));
-    };
     let buffer_len = buffers.get(view.buffer().index()).map_or(0, |b| b.len());
     let view_end = view.offset().checked_add(view.length());
     if view_end.is_none_or(|end| end > buffer_len) {
@@ -625,6 +670,64 @@ pub(crate) fn check_accessor<B: std::ops::Deref<Target = [u8]>>(
             view.length()
         ));
     }
+    Ok(())
+}
+
+/// A sparse accessor's substitutions: at most its element count of them, their
+/// indices and values within their views (which glTF packs, with no stride).
+fn check_sparse<B: std::ops::Deref<Target = [u8]>>(
+    accessor: &gltf::Accessor,
+    sparse: &gltf::accessor::sparse::Sparse,
+    buffers: &[B],
+) -> Result<(), String> {
+    let n = sparse.count();
+    if n > accessor.count() {
+        return Err(format!(
+            "accessor {}: {n} sparse substitutions for {} elements",
+            accessor.index(),
+            accessor.count()
+        ));
+    }
+    let (indices, values) = (sparse.indices(), sparse.values());
+    let parts = [
+        (
+            "indices",
+            indices.view(),
+            indices.offset(),
+            sparse_index_size(&indices),
+        ),
+        ("values", values.view(), values.offset(), accessor.size()),
+    ];
+    for (what, view, offset, size) in parts {
+        check_view(&view, buffers)?;
+        let end = n.checked_mul(size).and_then(|b| b.checked_add(offset));
+        if end.is_none_or(|end| end > view.length()) {
+            return Err(format!(
+                "accessor {}: {n} sparse {what} of {size} bytes from byte {offset} run past buffer view {} of {} bytes",
+                accessor.index(),
+                view.index(),
+                view.length()
+            ));
+        }
+    }
+    Ok(())
+}
+
+pub(crate) fn check_accessor<B: std::ops::Deref<Target = [u8]>>(
+    accessor: &gltf::Accessor,
+    buffers: &[B],
+) -> Result<(), String> {
+    if let Some(sparse) = accessor.sparse() {
+        check_sparse(accessor, &sparse, buffers)?;
+    }
+    let Some(view) = accessor.view() else {
+        return match accessor.sparse() {
+            // Zeros, then the substitutions.
+            Some(_) => Ok(()),
+            None => Err(format!("accessor {} has no buffer view", accessor.index())),
+        };
+    };
+    check_view(&view, buffers)?;
     let element = accessor.size();
     let component = accessor.data_type().size();
     if let Some(stride) = view.stride() {
