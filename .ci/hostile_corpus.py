@@ -185,6 +185,20 @@ amplified = json.loads(sparse_doc(100_000_000, 1, 1))
 amplified["accessors"][1].update({"min": [0, 0, 0], "max": [0, 0, 0.5]})
 amplified["meshes"][0]["primitives"][0] = {"attributes": {"POSITION": 1}}
 write("error-sparse-positions-amplified.gltf", json.dumps(amplified))
+# EXT_meshopt_compression claiming 4e9 elements of 256 bytes from 16 bytes (past the
+# decode cap), and claiming data outside its buffer.
+def meshopt_doc(count, offset):
+    doc = json.loads(scene_doc(corners, [{"buffer": 1, "byteLength": 36, "byteStride": 12,
+        "extensions": {"EXT_meshopt_compression": {"buffer": 0, "byteOffset": offset, "byteLength": 16,
+                                                  "byteStride": 256, "count": count, "mode": "ATTRIBUTES"}}}],
+        [{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}],
+        [{"primitives": [{"attributes": {"POSITION": 0}}]}], [{"mesh": 0}],
+        extensionsUsed=["EXT_meshopt_compression"], extensionsRequired=["EXT_meshopt_compression"]))
+    doc["buffers"].append({"byteLength": 36, "extensions": {"EXT_meshopt_compression": {"fallback": True}}})
+    return json.dumps(doc)
+write("error-meshopt-count.gltf", meshopt_doc(4_000_000_000, 0))
+write("error-meshopt-gigabyte.gltf", meshopt_doc(4_000_000, 0))
+write("error-meshopt-outside.gltf", meshopt_doc(3, 1_000_000))
 # Integer positions without KHR_mesh_quantization, which alone allows them.
 write("error-gltf-integer-positions.gltf", scene_doc(
     struct.pack("<9h3h", 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 0),

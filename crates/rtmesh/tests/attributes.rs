@@ -800,7 +800,6 @@ fn a_required_extension_that_changes_geometry_is_named_and_one_that_does_not_is_
     let dir = temp_dir();
     for (required, readable) in [
         ("KHR_draco_mesh_compression", false),
-        ("EXT_meshopt_compression", false),
         ("EXT_mesh_gpu_instancing", false),
         ("KHR_materials_variants", true),
         ("KHR_texture_basisu", true),
@@ -902,6 +901,149 @@ fn sparse_accessors_are_read_with_their_substitutions() {
     let error = read(&sparse_gltf(dir.path(), 3)).unwrap_err().to_string();
     assert!(
         error.contains("sparse index 3 (entry 0) is past its 3 elements"),
+        "{error}"
+    );
+}
+
+/// A quad as `gltfpack -c` writes one: positions and normals (octahedral, i8) through
+/// meshoptimizer's vertex codec, triangles through its index codec, each in a view of
+/// `EXT_meshopt_compression` over a fallback buffer; `plain` writes the same data
+/// uncompressed (the normals as the filter decodes them) instead.
+fn meshopt_gltf(dir: &Path, name: &str, plain: bool, corrupt: bool) -> std::path::PathBuf {
+    use meshopt::encoding::{
+        decode_filter_oct, encode_filter_oct, encode_index_buffer, encode_vertex_buffer,
+    };
+    let positions: [[f32; 3]; 4] = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.5],
+    ];
+    let normals = [
+        [0.0f32, 0.0, 1.0, 0.0],
+        [0.0, 0.6, 0.8, 0.0],
+        [0.6, 0.0, 0.8, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ];
+    let encoded_normals: Vec<[i8; 4]> = encode_filter_oct(&normals, 8);
+    let mut filtered = encoded_normals.clone();
+    decode_filter_oct(&mut filtered);
+    let indices = [0u32, 1, 2, 1, 3, 2];
+    let position_bytes: Vec<u8> = positions
+        .iter()
+        .flatten()
+        .flat_map(|x| x.to_le_bytes())
+        .collect();
+    let normal_bytes: Vec<u8> = filtered.iter().flatten().map(|&x| x as u8).collect();
+    let index_bytes: Vec<u8> = indices
+        .iter()
+        .flat_map(|&i| (i as u16).to_le_bytes())
+        .collect();
+    let streams = match plain {
+        true => vec![
+            position_bytes.clone(),
+            normal_bytes.clone(),
+            index_bytes.clone(),
+        ],
+        false => vec![
+            encode_vertex_buffer(&positions).unwrap(),
+            encode_vertex_buffer(&encoded_normals).unwrap(),
+            encode_index_buffer(&indices, 4).unwrap(),
+        ],
+    };
+    let mut bin = Vec::new();
+    let mut at = Vec::new();
+    for stream in &streams {
+        at.push(bin.len());
+        bin.extend(stream);
+        while bin.len() % 4 != 0 {
+            bin.push(0);
+        }
+    }
+    if corrupt {
+        bin[at[0] + 1..at[1]].iter_mut().for_each(|b| *b = 0xff);
+    }
+    std::fs::write(dir.join(format!("{name}.bin")), &bin).unwrap();
+    let sizes: [(usize, usize, &str, &str); 3] = [
+        (12, 4, "ATTRIBUTES", "NONE"),
+        (4, 4, "ATTRIBUTES", "OCTAHEDRAL"),
+        (2, 6, "TRIANGLES", "NONE"),
+    ];
+    let mut fallback_at = 0;
+    let views: Vec<serde_json::Value> = (0..3)
+        .map(|k| {
+            let (stride, count, mode, filter) = sizes[k];
+            let length = stride * count;
+            let view = match plain {
+                true => serde_json::json!({"buffer": 0, "byteOffset": at[k], "byteLength": length}),
+                false => {
+                    serde_json::json!({"buffer": 1, "byteOffset": fallback_at, "byteLength": length,
+                    "extensions": {"EXT_meshopt_compression": {"buffer": 0, "byteOffset": at[k],
+                        "byteLength": streams[k].len(), "byteStride": stride, "count": count,
+                        "mode": mode, "filter": filter}}})
+                }
+            };
+            fallback_at += length.next_multiple_of(4);
+            let mut view = view;
+            if k < 2 {
+                view["byteStride"] = serde_json::json!(stride);
+            }
+            view
+        })
+        .collect();
+    let mut buffers =
+        vec![serde_json::json!({"uri": format!("{name}.bin"), "byteLength": bin.len()})];
+    let mut extensions = vec!["KHR_mesh_quantization"];
+    if !plain {
+        buffers.push(serde_json::json!({"byteLength": fallback_at,
+            "extensions": {"EXT_meshopt_compression": {"fallback": true}}}));
+        extensions.insert(0, "EXT_meshopt_compression");
+    }
+    let mut gltf = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "buffers": buffers,
+        "bufferViews": views,
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 0.5]},
+            {"bufferView": 1, "componentType": 5120, "normalized": true, "count": 4, "type": "VEC3"},
+            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
+        ],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1}, "indices": 2}]}],
+        "nodes": [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0
+    });
+    gltf["extensionsUsed"] = serde_json::json!(extensions);
+    gltf["extensionsRequired"] = serde_json::json!(extensions);
+    let path = dir.join(format!("{name}.gltf"));
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    path
+}
+
+#[test]
+fn meshopt_compressed_views_are_decoded_to_the_data_they_hold() {
+    let dir = temp_dir();
+    let compressed =
+        read(&meshopt_gltf(dir.path(), "c", false, false)).unwrap_or_else(|e| panic!("{e}"));
+    let plain = read(&meshopt_gltf(dir.path(), "p", true, false)).unwrap_or_else(|e| panic!("{e}"));
+    assert_same_flat(&compressed, &plain, "gltf");
+    assert_eq!(compressed.meshes[0].positions[3], Vec3::new(1.0, 1.0, 0.5));
+    // Written uncompressed, without the extension, and read back the same.
+    let back = written(&compressed, "out.glb");
+    assert_same_flat(&back, &plain, "glb");
+    let root = document(&back).root();
+    assert_eq!(root.extensions_required, ["KHR_mesh_quantization"]);
+    assert!(!root
+        .extensions_used
+        .iter()
+        .any(|e| e == "EXT_meshopt_compression"));
+    // Bytes that do not decode are an error naming the view.
+    let error = read(&meshopt_gltf(dir.path(), "x", false, true))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("buffer view 0: EXT_meshopt_compression data does not decode"),
         "{error}"
     );
 }

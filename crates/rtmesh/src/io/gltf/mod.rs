@@ -8,6 +8,7 @@
 //! (`write.rs`). Every accessor is bounds-checked against its buffer before it is read,
 //! so a lying file is an error, not a panic.
 
+mod meshopt;
 mod mtl;
 mod write;
 
@@ -57,7 +58,11 @@ pub(super) fn read<R: BufRead>(
     let gltf::Gltf { document, blob } = unvalidated;
     let document = validated(document).map_err(|e| MeshError::invalid(path, e))?;
     let quantized = document.extensions_used().any(|e| e == QUANTIZATION);
-    let buffers = read_buffers(path, &document, blob, root)?;
+    let mut buffers = read_buffers(path, &document, blob, root)?;
+    let document = match document.extensions_used().any(|e| e == meshopt::MESHOPT) {
+        true => meshopt::decode(document, &mut buffers).map_err(|e| MeshError::invalid(path, e))?,
+        false => document,
+    };
     let mut budget = ReadBudget::new(buffers.iter().map(|b| b.0.len()).sum());
 
     let mut scene = Scene {
@@ -313,19 +318,21 @@ fn leaves_geometry_alone(extension: &str) -> bool {
 }
 
 /// The document validated by the gltf crate, except that the extensions it may
-/// require are rtmesh's rule, not the crate's: `KHR_mesh_quantization` (read here)
-/// and those that leave the geometry alone ([`leaves_geometry_alone`]); any other
-/// (Draco or meshopt compression, GPU instancing) is an error naming it, since
+/// require are rtmesh's rule, not the crate's: `KHR_mesh_quantization` (read here),
+/// `EXT_meshopt_compression` (decoded, `meshopt.rs`) and those that leave the geometry
+/// alone ([`leaves_geometry_alone`]); any other (Draco, GPU instancing) is an error
+/// naming it, since
 /// tracing without it would measure the wrong geometry.
 fn validated(document: gltf::Document) -> Result<gltf::Document, String> {
     let mut json = document.into_json();
-    if let Some(unknown) = (json.extensions_required.iter())
-        .find(|e| e.as_str() != QUANTIZATION && !leaves_geometry_alone(e))
-    {
+    if let Some(unknown) = (json.extensions_required.iter()).find(|e| {
+        ![QUANTIZATION, meshopt::MESHOPT].contains(&e.as_str()) && !leaves_geometry_alone(e)
+    }) {
         return Err(format!(
             "the file requires the extension {unknown}, which rtmesh cannot read (of the \
-             extensions that change geometry it reads {QUANTIZATION}); write the file without \
-             it first"
+             extensions that change geometry it reads {QUANTIZATION} and {}); write the file \
+             without it first",
+            meshopt::MESHOPT
         ));
     }
     let required = std::mem::take(&mut json.extensions_required);
@@ -442,6 +449,11 @@ fn read_buffers(
         let context =
             |what: String| MeshError::invalid(path, format!("buffer {}: {what}", buffer.index()));
         let mut data = match buffer.source() {
+            // Its views are decoded from other buffers (`meshopt.rs`).
+            gltf::buffer::Source::Bin if meshopt::is_fallback(&buffer) => {
+                buffers.push(gltf::buffer::Data(Vec::new()));
+                continue;
+            }
             gltf::buffer::Source::Bin => blob.take().ok_or_else(|| {
                 context("refers to a GLB binary chunk the file does not have".into())
             })?,
