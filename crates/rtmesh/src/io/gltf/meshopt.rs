@@ -88,65 +88,51 @@ pub(super) fn decode(
         decoded_bytes += size;
         let mut out = vec![0u8; size as usize];
         let (count, stride) = (count as usize, stride as usize);
-        let code = match (mode.as_str(), stride) {
-            // SAFETY (all three): `out` holds `count` elements of `stride` bytes, and
-            // `source` is a valid slice; the decoders check the encoded bytes.
-            ("ATTRIBUTES", s) if s % 4 == 0 && s <= 256 => unsafe {
-                meshopt::ffi::meshopt_decodeVertexBuffer(
-                    out.as_mut_ptr().cast(),
-                    count,
-                    stride,
-                    source.as_ptr(),
-                    source.len(),
-                )
-            },
-            ("TRIANGLES", 2 | 4) if count % 3 == 0 => unsafe {
-                meshopt::ffi::meshopt_decodeIndexBuffer(
-                    out.as_mut_ptr().cast(),
-                    count,
-                    stride,
-                    source.as_ptr(),
-                    source.len(),
-                )
-            },
-            ("INDICES", 2 | 4) => unsafe {
-                meshopt::ffi::meshopt_decodeIndexSequence(
-                    out.as_mut_ptr().cast(),
-                    count,
-                    stride,
-                    source.as_ptr(),
-                    source.len(),
-                )
-            },
+        use std::os::raw::{c_int, c_uchar, c_void};
+        type Decoder =
+            unsafe extern "C" fn(*mut c_void, usize, usize, *const c_uchar, usize) -> c_int;
+        type Filter = unsafe extern "C" fn(*mut c_void, usize, usize);
+        let decoder: Decoder = match (mode.as_str(), stride) {
+            ("ATTRIBUTES", s) if s % 4 == 0 && s <= 256 => meshopt::ffi::meshopt_decodeVertexBuffer,
+            ("TRIANGLES", 2 | 4) if count % 3 == 0 => meshopt::ffi::meshopt_decodeIndexBuffer,
+            ("INDICES", 2 | 4) => meshopt::ffi::meshopt_decodeIndexSequence,
             _ => {
                 return Err(format!(
                     "buffer view {v}: {MESHOPT} mode '{mode}' with byteStride {stride} and count {count} is not one the extension defines"
                 ))
             }
         };
-        if code != 0 {
-            return Err(format!(
-                "buffer view {v}: {MESHOPT} data does not decode (meshoptimizer's error {code})"
-            ));
-        }
-        match (filter.as_str(), mode.as_str(), stride) {
-            ("NONE", ..) => {}
-            // SAFETY (all three): `out` holds `count` elements of `stride` bytes, the
-            // size each filter is given.
-            ("OCTAHEDRAL", "ATTRIBUTES", 4 | 8) => unsafe {
-                meshopt::ffi::meshopt_decodeFilterOct(out.as_mut_ptr().cast(), count, stride)
-            },
-            ("QUATERNION", "ATTRIBUTES", 8) => unsafe {
-                meshopt::ffi::meshopt_decodeFilterQuat(out.as_mut_ptr().cast(), count, stride)
-            },
-            ("EXPONENTIAL", "ATTRIBUTES", s) if s % 4 == 0 => unsafe {
-                meshopt::ffi::meshopt_decodeFilterExp(out.as_mut_ptr().cast(), count, stride)
-            },
+        let filter: Option<Filter> = match (filter.as_str(), mode.as_str(), stride) {
+            ("NONE", ..) => None,
+            ("OCTAHEDRAL", "ATTRIBUTES", 4 | 8) => Some(meshopt::ffi::meshopt_decodeFilterOct),
+            ("QUATERNION", "ATTRIBUTES", 8) => Some(meshopt::ffi::meshopt_decodeFilterQuat),
+            ("EXPONENTIAL", "ATTRIBUTES", s) if s % 4 == 0 => Some(meshopt::ffi::meshopt_decodeFilterExp),
             _ => {
                 return Err(format!(
                     "buffer view {v}: {MESHOPT} filter '{filter}' on mode '{mode}' with byteStride {stride} is not one the extension defines"
                 ))
             }
+        };
+        // SAFETY: `out` holds `count` elements of `stride` bytes, the size each decoder
+        // and filter is told (with the stride each accepts, checked above), and `source`
+        // is a valid slice; the decoders check the encoded bytes.
+        let code = unsafe {
+            decoder(
+                out.as_mut_ptr().cast(),
+                count,
+                stride,
+                source.as_ptr(),
+                source.len(),
+            )
+        };
+        if code != 0 {
+            return Err(format!(
+                "buffer view {v}: {MESHOPT} data does not decode (meshoptimizer's error {code})"
+            ));
+        }
+        if let Some(filter) = filter {
+            // SAFETY: as above.
+            unsafe { filter(out.as_mut_ptr().cast(), count, stride) }
         }
         let view = &mut root.buffer_views[v];
         view.buffer = json::Index::new(buffers.len() as u32);
