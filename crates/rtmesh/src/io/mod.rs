@@ -327,35 +327,31 @@ fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::Mtl
 /// stores, materials, several geometries in a format of one, and a glTF document's
 /// nodes, skins, animations and cameras.
 fn not_held(scene: &Scene, format: Format) -> Vec<String> {
-    let held: &[&str] = match format {
+    // The vertex attributes the format holds; `None`: every one (PLY).
+    let held: Option<&[&str]> = match format {
         Format::Gltf | Format::Glb => return Vec::new(),
-        Format::Obj => &["NORMAL", "TEXCOORD_0", "COLOR_0"],
-        Format::Ply => {
-            let mut lost: Vec<String> = geometries_not_held(scene).into_iter().collect();
-            lost.extend(document_not_held(scene, true));
-            return lost;
-        }
-        Format::Stl => &[],
+        Format::Obj => Some(&["NORMAL", "TEXCOORD_0", "COLOR_0"]),
+        Format::Ply => None,
+        Format::Stl => Some(&[]),
     };
-    let mut attributes: Vec<&str> = Vec::new();
-    let mut morph_targets = false;
-    for attribute in scene.meshes.iter().flat_map(|m| &m.attributes) {
-        let name = attribute.name.as_str();
-        if name.starts_with(crate::mesh::MORPH_PREFIX) {
-            morph_targets = true;
-        } else if !held.contains(&name) && !attributes.contains(&name) {
-            attributes.push(name);
-        }
-    }
     let mut lost = Vec::new();
-    if !attributes.is_empty() {
-        lost.push(format!("vertex attributes {}", attributes.join(", ")));
-    }
-    if morph_targets {
-        lost.push("morph targets".to_owned());
-    }
-    if format == Format::Stl {
-        lost.extend(geometries_not_held(scene));
+    if let Some(held) = held {
+        let mut attributes: Vec<&str> = Vec::new();
+        let mut morph_targets = false;
+        for attribute in scene.meshes.iter().flat_map(|m| &m.attributes) {
+            let name = attribute.name.as_str();
+            if name.starts_with(crate::mesh::MORPH_PREFIX) {
+                morph_targets = true;
+            } else if !held.contains(&name) && !attributes.contains(&name) {
+                attributes.push(name);
+            }
+        }
+        if !attributes.is_empty() {
+            lost.push(format!("vertex attributes {}", attributes.join(", ")));
+        }
+        if morph_targets {
+            lost.push("morph targets".to_owned());
+        }
     }
     if format == Format::Obj
         && (scene.meshes.iter())
@@ -364,7 +360,15 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     {
         lost.push("COLOR_0's alpha".to_owned());
     }
-    lost.extend(document_not_held(scene, format == Format::Stl));
+    // PLY and STL hold one mesh, and no materials.
+    let one_mesh = matches!(format, Format::Ply | Format::Stl);
+    let placed = scene.instances.len();
+    if one_mesh && placed > 1 {
+        lost.push(format!(
+            "geometries: {placed} (merged into one mesh, their names with them)"
+        ));
+    }
+    lost.extend(document_not_held(scene, one_mesh));
     lost
 }
 
@@ -381,14 +385,6 @@ fn node_is_plain(node: &::gltf::json::Node) -> bool {
         && node.translation.is_none_or(|t| t == [0.0; 3])
         && node.rotation.is_none_or(|r| r.0 == [0.0, 0.0, 0.0, 1.0])
         && node.scale.is_none_or(|s| s == [1.0; 3])
-}
-
-/// What a format of one mesh (PLY, STL) cannot hold of a scene of several: the
-/// geometries' boundaries and names, merged into one mesh in world space.
-fn geometries_not_held(scene: &Scene) -> Option<String> {
-    let placed = scene.instances.len();
-    (placed > 1)
-        .then(|| format!("geometries: {placed} (merged into one mesh, their names with them)"))
 }
 
 /// What a one-level format cannot hold of the document `scene` was read with:

@@ -21,7 +21,6 @@ use crate::mesh::{
 };
 use glam::{Affine3A, DMat4, Mat4, Vec3};
 use gltf::mesh::Mode;
-use std::borrow::Cow;
 use std::io::BufRead;
 use std::path::Path;
 
@@ -177,25 +176,32 @@ pub(super) fn read<R: BufRead>(
                             context("its vertices")
                         })
                         .map_err(|e| MeshError::invalid(path, e))?;
+                    // Dense floats through the gltf crate's reader, lazily; sparse or
+                    // quantized ones as the numbers their values stand for.
                     let dense_f32 =
                         position_type.0 == DataType::F32 && position_accessor.sparse().is_none();
-                    let positions: Vec<Vec3> = match dense_f32 {
-                        true => (data.read_positions())
-                            .ok_or_else(|| {
-                                MeshError::invalid(path, context("unreadable POSITION"))
-                            })?
-                            .map(Vec3::from_array)
-                            .collect(),
-                        // Sparse or quantized: the numbers the values stand for.
-                        false => {
-                            let stored = read_attribute("POSITION", &position_accessor, &buffers)
-                                .map_err(|e| MeshError::invalid(path, context(&e)))?;
-                            let AttributeValues::F32(numbers) = stored.to_f32().values else {
-                                unreachable!("to_f32 gives f32")
-                            };
-                            numbers.chunks_exact(3).map(Vec3::from_slice).collect()
-                        }
+                    let dense = match dense_f32 {
+                        true => Some(data.read_positions().ok_or_else(|| {
+                            MeshError::invalid(path, context("unreadable POSITION"))
+                        })?),
+                        false => None,
                     };
+                    let stored = match dense_f32 {
+                        true => None,
+                        false => Some(
+                            read_attribute("POSITION", &position_accessor, &buffers)
+                                .map_err(|e| MeshError::invalid(path, context(&e)))?,
+                        ),
+                    };
+                    let numbers = stored.iter().flat_map(|p| {
+                        (0..p.vertex_count())
+                            .map(|v| Vec3::from_array([0, 1, 2].map(|c| p.value(v, c) as f32)))
+                    });
+                    let positions = dense
+                        .into_iter()
+                        .flatten()
+                        .map(Vec3::from_array)
+                        .chain(numbers);
                     let mut read = Vec::with_capacity(streams.len());
                     for (name, accessor) in &streams {
                         // Counted before reading: the budget was taken for `count`.
@@ -212,7 +218,7 @@ pub(super) fn read<R: BufRead>(
                             .map_err(|e| MeshError::invalid(path, context(&e)))?;
                         read.push(attribute);
                     }
-                    out.extend_vertices(positions.into_iter(), read);
+                    out.extend_vertices(positions, read);
                     shared = Some((signature, base));
                     base
                 }
@@ -302,7 +308,6 @@ impl GltfDocument {
     }
 }
 
-/// The values of a vertex attribute accessor (checked first), in its stored type.
 /// `KHR_mesh_quantization`: integer positions, normals, tangents and texture
 /// coordinates, read as the numbers they stand for and written back in their type.
 pub(super) const QUANTIZATION: &str = "KHR_mesh_quantization";
@@ -321,8 +326,7 @@ fn leaves_geometry_alone(extension: &str) -> bool {
 /// require are rtmesh's rule, not the crate's: `KHR_mesh_quantization` (read here),
 /// `EXT_meshopt_compression` (decoded, `meshopt.rs`) and those that leave the geometry
 /// alone ([`leaves_geometry_alone`]); any other (Draco, GPU instancing) is an error
-/// naming it, since
-/// tracing without it would measure the wrong geometry.
+/// naming it, since tracing without it would measure the wrong geometry.
 fn validated(document: gltf::Document) -> Result<gltf::Document, String> {
     let mut json = document.into_json();
     if let Some(unknown) = (json.extensions_required.iter()).find(|e| {
@@ -343,12 +347,13 @@ fn validated(document: gltf::Document) -> Result<gltf::Document, String> {
     Ok(gltf::Document::from_json_without_validation(json))
 }
 
+/// The values of a vertex attribute accessor (checked first), in its stored type.
 fn read_attribute(
     name: &str,
     accessor: &gltf::Accessor,
     buffers: &[gltf::buffer::Data],
 ) -> Result<VertexAttribute, String> {
-    use gltf::accessor::{DataType, Dimensions};
+    use gltf::accessor::Dimensions;
     check_accessor(accessor, buffers)?;
     let components = match accessor.dimensions() {
         Dimensions::Scalar => 1,
@@ -365,65 +370,53 @@ fn read_attribute(
     let size = accessor.data_type().size();
     let element = size * components;
     let count = accessor.count();
-    // The elements packed: borrowed where the view packs them already, else gathered
-    // (or zeros, for a sparse accessor without a view), then the sparse substitutions.
-    let mut bytes: Cow<[u8]> = match accessor.view() {
-        Some(view) => {
-            let data = &buffers[view.buffer().index()].0;
-            let stride = view.stride().unwrap_or(element);
-            let start = view.offset() + accessor.offset();
-            match stride == element {
-                true => Cow::Borrowed(&data[start..start + count * element]),
-                false => Cow::Owned(
-                    (0..count)
-                        .flat_map(|i| &data[start + i * stride..start + i * stride + element])
-                        .copied()
-                        .collect(),
-                ),
-            }
-        }
-        None => Cow::Owned(vec![0; count * element]),
-    };
-    if let Some(sparse) = accessor.sparse() {
-        let dense = bytes.to_mut();
-        let (indices, values) = (sparse.indices(), sparse.values());
-        let index_size = sparse_index_size(&indices);
-        let index_data = &buffers[indices.view().buffer().index()].0;
-        let index_start = indices.view().offset() + indices.offset();
-        let value_data = &buffers[values.view().buffer().index()].0;
-        let value_start = values.view().offset() + values.offset();
-        for k in 0..sparse.count() {
-            let at = index_start + k * index_size;
-            let index = (index_data[at..at + index_size].iter().rev())
-                .fold(0usize, |n, &b| n << 8 | b as usize);
-            if index >= count {
-                return Err(format!(
-                    "accessor {}: sparse index {index} (entry {k}) is past its {count} elements",
-                    accessor.index()
-                ));
-            }
-            let from = value_start + k * element;
-            dense[index * element..(index + 1) * element]
-                .copy_from_slice(&value_data[from..from + element]);
-        }
-    }
-    let bytes = bytes.chunks_exact(size);
-    macro_rules! typed {
-        ($variant:ident, $t:ty) => {
-            AttributeValues::$variant(
-                bytes
-                    .map(|b| <$t>::from_le_bytes(b.try_into().expect("component size")))
-                    .collect(),
+    // A sparse accessor's elements are packed into bytes of their own (from its view,
+    // or zeros) and substituted there; any other is read from its view where it lies.
+    // Each element's bytes where the view holds them (checked to lie within it).
+    let stored = accessor.view().map(|view| {
+        let data = &buffers[view.buffer().index()].0;
+        let stride = view.stride().unwrap_or(element);
+        let start = view.offset() + accessor.offset();
+        (0..count).map(move |i| &data[start + i * stride..][..element])
+    });
+    let values = match accessor.sparse() {
+        None => {
+            let elements = stored.expect("checked: a dense accessor has a view");
+            typed_values(
+                accessor.data_type(),
+                elements.flat_map(|e| e.chunks_exact(size)),
             )
-        };
-    }
-    let values = match accessor.data_type() {
-        DataType::I8 => typed!(I8, i8),
-        DataType::U8 => typed!(U8, u8),
-        DataType::I16 => typed!(I16, i16),
-        DataType::U16 => typed!(U16, u16),
-        DataType::U32 => typed!(U32, u32),
-        DataType::F32 => typed!(F32, f32),
+        }
+        Some(sparse) => {
+            let mut dense = vec![0u8; count * element];
+            for (to, from) in dense
+                .chunks_exact_mut(element)
+                .zip(stored.into_iter().flatten())
+            {
+                to.copy_from_slice(from);
+            }
+            let (indices, values) = (sparse.indices(), sparse.values());
+            let index_size = sparse_index_size(&indices);
+            let index_data = &buffers[indices.view().buffer().index()].0;
+            let index_start = indices.view().offset() + indices.offset();
+            let value_data = &buffers[values.view().buffer().index()].0;
+            let value_start = values.view().offset() + values.offset();
+            for k in 0..sparse.count() {
+                let at = index_start + k * index_size;
+                let index = (index_data[at..at + index_size].iter().rev())
+                    .fold(0usize, |n, &b| n << 8 | b as usize);
+                if index >= count {
+                    return Err(format!(
+                        "accessor {}: sparse index {index} (entry {k}) is past its {count} elements",
+                        accessor.index()
+                    ));
+                }
+                let from = value_start + k * element;
+                dense[index * element..(index + 1) * element]
+                    .copy_from_slice(&value_data[from..from + element]);
+            }
+            typed_values(accessor.data_type(), dense.chunks_exact(size))
+        }
     };
     Ok(VertexAttribute {
         name: name.to_owned(),
@@ -654,6 +647,31 @@ impl ReadBudget {
                 self.limit
             )),
         }
+    }
+}
+
+/// Values of `data_type` from their little-endian components, one slice a component.
+fn typed_values<'a>(
+    data_type: gltf::accessor::DataType,
+    components: impl Iterator<Item = &'a [u8]>,
+) -> AttributeValues {
+    use gltf::accessor::DataType;
+    macro_rules! typed {
+        ($variant:ident, $t:ty) => {
+            AttributeValues::$variant(
+                components
+                    .map(|b| <$t>::from_le_bytes(b.try_into().expect("component size")))
+                    .collect(),
+            )
+        };
+    }
+    match data_type {
+        DataType::I8 => typed!(I8, i8),
+        DataType::U8 => typed!(U8, u8),
+        DataType::I16 => typed!(I16, i16),
+        DataType::U16 => typed!(U16, u16),
+        DataType::U32 => typed!(U32, u32),
+        DataType::F32 => typed!(F32, f32),
     }
 }
 

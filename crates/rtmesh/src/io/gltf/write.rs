@@ -375,15 +375,15 @@ fn quantized_positions(document: &GltfDocument, m: usize) -> Option<VertexAttrib
         .attributes
         .get(&Checked::Valid(json::mesh::Semantic::Positions))?;
     let accessor = root.accessors.get(position.value())?;
-    let values = match accessor.component_type {
-        Checked::Valid(json::accessor::GenericComponentType(C::I8)) => AttributeValues::I8(vec![]),
-        Checked::Valid(json::accessor::GenericComponentType(C::U8)) => AttributeValues::U8(vec![]),
-        Checked::Valid(json::accessor::GenericComponentType(C::I16)) => {
-            AttributeValues::I16(vec![])
-        }
-        Checked::Valid(json::accessor::GenericComponentType(C::U16)) => {
-            AttributeValues::U16(vec![])
-        }
+    let Checked::Valid(json::accessor::GenericComponentType(component)) = accessor.component_type
+    else {
+        return None;
+    };
+    let values = match component {
+        C::I8 => AttributeValues::I8(vec![]),
+        C::U8 => AttributeValues::U8(vec![]),
+        C::I16 => AttributeValues::I16(vec![]),
+        C::U16 => AttributeValues::U16(vec![]),
         _ => return None,
     };
     Some(VertexAttribute {
