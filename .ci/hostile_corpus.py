@@ -99,6 +99,22 @@ write("ok-ply-tristrips.ply",
       + struct.pack("<18f", 0, 0, 0, 1, 0, 0, 0, 1, 0, 1, 1, 0, 0, 2, 0, 1, 2, 0)
       + struct.pack("<i", len(strips)) + struct.pack(f"<{len(strips)}i", *strips))
 write("any-empty.ply", "")
+# Face properties are kept per triangle; an edge element and a list per face are named
+# as not read.
+write("ok-ply-face-properties.ply",
+      "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 2\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty int label\n"
+      "property list uchar float texcoord\nelement edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3 255 7 0\n3 0 2 3 0 -1 2 0.5 0.5\n0 2\n")
+# A polygon's properties are repeated on each triangle of its fan: three faces of 3,000
+# corners and 3,000 properties (66 kB) would ask for 27 M values.
+n = 3000
+write("error-ply-fan-properties.ply",
+      (f"ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\n"
+       f"element face 3\nproperty list uint uint vertex_indices\n"
+       + "".join(f"property uchar p{i}\n" for i in range(n)) + "end_header\n").encode()
+      + b"".join(struct.pack("<3f", i, i % 7, i % 3) for i in range(n))
+      + (struct.pack("<I", n) + struct.pack(f"<{n}I", *range(n)) + bytes(n)) * 3)
 
 stl_facet = struct.pack("<12fH", 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0)
 write("ok-stl-binary.stl", b" " * 80 + struct.pack("<I", 1) + stl_facet)

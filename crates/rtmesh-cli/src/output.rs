@@ -148,11 +148,27 @@ pub fn write_mesh(
             notes.weights_renormalized
         );
     }
-    if !notes.not_held.is_empty() {
+    if !notes.not_read.is_empty() {
         eprintln!(
-            "note: {} cannot hold, so goes without: {} (write .gltf or .glb to keep them)",
+            "note: {input} holds what rtmesh does not read, so {} goes without: {}",
             path.display(),
-            notes.not_held.join("; ")
+            notes.not_read.join("; ")
+        );
+    }
+    if !notes.not_held.is_empty() {
+        let gltf = matches!(
+            rtmesh::io::Format::from_path(path),
+            Ok(rtmesh::io::Format::Gltf | rtmesh::io::Format::Glb)
+        );
+        eprintln!(
+            "note: {} cannot hold, so goes without: {}{}",
+            path.display(),
+            notes.not_held.join("; "),
+            if gltf {
+                ""
+            } else {
+                " (write .gltf or .glb to keep them)"
+            }
         );
     }
     Ok((copies, notes))

@@ -95,6 +95,8 @@ fn info_convert_pair_lint_repair_keys() {
         "strip_degenerates_dropped",
         "ignored_line_and_point_statements",
         "attributes",
+        "triangle_attributes",
+        "not_read",
         "material_names",
         "document",
         "side_files",
@@ -114,6 +116,7 @@ fn info_convert_pair_lint_repair_keys() {
             "written_beside",
             "embedded_images",
             "not_held",
+            "not_read",
         ],
     );
     assert_keys(
@@ -282,6 +285,7 @@ fn trace_render_demo_keys() {
             "pairs_file",
             "side_files",
             "not_held",
+            "not_read",
             "ok",
             "error",
             "seconds",

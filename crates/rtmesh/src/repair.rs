@@ -354,6 +354,10 @@ fn remove_triangles(mesh: &mut TriMesh, input_triangle: &mut Vec<u32>, ids: &[u3
     mesh.material_ids = kept(&mesh.material_ids, &keep);
     mesh.alpha_tested = kept(&mesh.alpha_tested, &keep);
     mesh.group_ids = kept(&mesh.group_ids, &keep);
+    let kept_ids: Vec<u32> = (0..keep.len() as u32)
+        .filter(|&t| keep[t as usize])
+        .collect();
+    mesh.triangle_attributes = crate::mesh::gather_all(&mesh.triangle_attributes, &kept_ids);
     *input_triangle = kept(input_triangle, &keep);
 }
 

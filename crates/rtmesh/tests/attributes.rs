@@ -1,7 +1,8 @@
 //! Nothing lost: through the map from output to input triangles, every output corner
 //! has the position and attribute values of its input corner, bit for bit, after
 //! `convert` (write and read back), pairing, repair, and the glTF document's other
-//! parts come out equal. Real files from `RTMESH_DATA` (skipped without it, unless
+//! parts come out equal; every output triangle has its input triangle's own attribute
+//! values (a PLY face's properties). Real files from `RTMESH_DATA` (skipped without it, unless
 //! `RTMESH_REQUIRE_DATA=1`), hand-built meshes, and property-test meshes.
 
 use glam::Vec3;
@@ -31,12 +32,36 @@ fn corner(mesh: &TriMesh, v: u32) -> Corner {
     (p.to_array().map(f32::to_bits), attributes)
 }
 
+/// Triangle `t`'s own attribute values as bits, by name (each stream holding one
+/// value per triangle).
+fn triangle_values(mesh: &TriMesh, t: usize) -> Vec<(String, Vec<u64>)> {
+    for a in &mesh.triangle_attributes {
+        assert_eq!(
+            a.vertex_count(),
+            mesh.triangle_count(),
+            "{}'s values",
+            a.name
+        );
+    }
+    let mut values: Vec<(String, Vec<u64>)> = (mesh.triangle_attributes.iter())
+        .map(|a| {
+            (
+                a.name.clone(),
+                a.vertex(t).iter().map(|x| x.to_bits()).collect(),
+            )
+        })
+        .collect();
+    values.sort();
+    values
+}
+
 /// Triangle `t` of `out` has the corners of triangle `u` of `input`, in the same
-/// winding (possibly rotated, as pairing does).
+/// winding (possibly rotated, as pairing does), and its own attribute values.
 fn same_corners(out: &TriMesh, t: usize, input: &TriMesh, u: usize) -> bool {
     let o = out.triangles[t].map(|v| corner(out, v));
     let i = input.triangles[u].map(|v| corner(input, v));
-    (0..3).any(|r| (0..3).all(|k| o[k] == i[(k + r) % 3]))
+    triangle_values(out, t) == triangle_values(input, u)
+        && (0..3).any(|r| (0..3).all(|k| o[k] == i[(k + r) % 3]))
 }
 
 /// The triangles of `out` (flattened) are those of `input` (flattened), corner for
@@ -59,12 +84,14 @@ fn assert_same_flat(out: &Scene, input: &Scene, what: &str) {
         what.contains("gl"),
         "{what}: triangle order or corners changed"
     );
+    type Canonical = ([Corner; 3], Vec<(String, Vec<u64>)>);
     let canonical = |m: &TriMesh| {
-        let mut all: Vec<[Corner; 3]> = (0..m.triangle_count())
+        let mut all: Vec<Canonical> = (0..m.triangle_count())
             .map(|t| {
                 let c = m.triangles[t].map(|v| corner(m, v));
                 let r = (0..3).min_by(|&a, &b| c[a].cmp(&c[b])).unwrap();
-                [c[r].clone(), c[(r + 1) % 3].clone(), c[(r + 2) % 3].clone()]
+                let corners = [c[r].clone(), c[(r + 1) % 3].clone(), c[(r + 2) % 3].clone()];
+                (corners, triangle_values(m, t))
             })
             .collect();
         all.sort();
@@ -92,6 +119,20 @@ fn written(scene: &Scene, name: &str) -> Scene {
     let path = dir.path().join(name);
     write(scene, &path).unwrap_or_else(|e| panic!("{e}"));
     read(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// `scene` as a format without values per triangle holds it: PLY alone keeps them.
+fn as_format_holds(scene: &Scene, format: &str) -> Scene {
+    let mut out = match format.starts_with("gl") {
+        true => with_unit_normals(scene),
+        false => scene.clone(),
+    };
+    if format != "ply" {
+        for mesh in &mut out.meshes {
+            mesh.triangle_attributes.clear();
+        }
+    }
+    out
 }
 
 fn with_unit_normals(scene: &Scene) -> Scene {
@@ -182,24 +223,14 @@ fn check_file(path: &Path, formats: &[&str]) -> Scene {
     );
     for format in formats {
         let back = written(&scene, &format!("convert.{format}"));
-        let expected = if format.starts_with("gl") {
-            with_unit_normals(&scene)
-        } else {
-            scene.clone()
-        };
+        let expected = as_format_holds(&scene, format);
         assert_same_flat(&back, &expected, &format!("{what} -> {format}"));
     }
     let paired = assert_pairing_keeps_corners(&scene, &what);
     let repaired = assert_repair_keeps_corners(&scene, &what);
     let optimized = assert_optimize_keeps_corners(&scene, &what);
     for format in formats {
-        let unit = |s: &Scene| {
-            if format.starts_with("gl") {
-                with_unit_normals(s)
-            } else {
-                s.clone()
-            }
-        };
+        let unit = |s: &Scene| as_format_holds(s, format);
         let back = written(&paired, &format!("pair.{format}"));
         assert_same_flat(&back, &unit(&paired), &format!("{what} paired -> {format}"));
         let back = written(&repaired, &format!("repair.{format}"));
@@ -495,8 +526,9 @@ fn bisection_interpolates_on_each_side_of_a_seam() {
     }
 }
 
-/// A grid with random UVs and colours, and a seam: its left and right halves do not
-/// share vertices along the middle column, and the two copies differ in UV.
+/// A grid with random UVs and colours, a label per triangle, and a seam: its left and
+/// right halves do not share vertices along the middle column, and the two copies
+/// differ in UV.
 fn random_seamed_grid(n: usize, uv_seed: &[f32], colours: &[u8]) -> TriMesh {
     let side = n + 1;
     let mut positions = Vec::new();
@@ -548,6 +580,18 @@ fn random_seamed_grid(n: usize, uv_seed: &[f32], colours: &[u8]) -> TriMesh {
         ),
         component_names: Vec::new(),
     });
+    let triangles = mesh.triangle_count();
+    mesh.triangle_attributes.push(VertexAttribute {
+        name: "label".into(),
+        components: 1,
+        normalized: false,
+        values: rtmesh::mesh::AttributeValues::U16(
+            (0..triangles)
+                .map(|t| colours[t % colours.len()] as u16 * 257 + t as u16)
+                .collect(),
+        ),
+        component_names: vec!["label".into()],
+    });
     mesh
 }
 
@@ -562,7 +606,7 @@ proptest! {
         let scene = Scene::from_mesh(random_seamed_grid(n, &uv_seed, &colours));
         for format in ["glb", "ply"] {
             let back = written(&scene, &format!("random.{format}"));
-            assert_same_flat(&back, &scene, format);
+            assert_same_flat(&back, &as_format_holds(&scene, format), format);
         }
         let paired = assert_pairing_keeps_corners(&scene, "random grid");
         // Pairs cross the seam: the topology is by position.
@@ -571,7 +615,9 @@ proptest! {
         welded_only.attributes.clear();
         prop_assert_eq!(topology_pairs, rtmesh::pair::pair(&welded_only.topology(), &PairSettings::default()).1.paired_triangles);
         let back = written(&paired, "random-paired.glb");
-        assert_same_flat(&back, &paired, "paired glb");
+        assert_same_flat(&back, &as_format_holds(&paired, "glb"), "paired glb");
+        let back = written(&paired, "random-paired.ply");
+        assert_same_flat(&back, &paired, "paired ply");
         assert_repair_keeps_corners(&scene, "random grid");
     }
 }
@@ -1045,5 +1091,82 @@ fn meshopt_compressed_views_are_decoded_to_the_data_they_hold() {
     assert!(
         error.contains("buffer view 0: EXT_meshopt_compression data does not decode"),
         "{error}"
+    );
+}
+
+/// A PLY whose faces hold a colour, a label and a quality beside their indices, and a
+/// list per face and an `edge` element that rtmesh does not read. Its faces: one
+/// naming a vertex twice and a triangle repeated, for repair to remove ahead of the
+/// others, a quad (two triangles of one face) and a sliver.
+fn ply_with_face_properties(dir: &Path) -> std::path::PathBuf {
+    let ply = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
+element face 5\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty int label\nproperty list uchar float texcoord\nproperty float quality\n\
+element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n\
+0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n2 0 0 0 0 1\n2 0.001 0 0 0 1\n\
+3 0 0 3 9 9 9 1 0 0\n3 1 2 5 0 0 255 9 0 -2\n3 1 2 5 0 0 255 9 0 -2\n4 0 1 2 3 255 0 0 7 0 0.25\n3 1 4 5 0 255 0 -3 2 0.5 0.5 1.5\n\
+0 2\n";
+    let path = dir.join("faces.ply");
+    std::fs::write(&path, ply).unwrap();
+    path
+}
+
+#[test]
+fn a_ply_face_keeps_its_properties_through_every_step() {
+    let dir = temp_dir();
+    let path = ply_with_face_properties(dir.path());
+    let scene = read(&path).unwrap();
+    let mesh = &scene.meshes[0];
+    // The quad's fan is two triangles with the quad's values, in the stored types.
+    let summary: Vec<(&str, usize, &str)> = (mesh.triangle_attributes.iter())
+        .map(|a| (a.name.as_str(), a.components, a.type_name()))
+        .collect();
+    assert_eq!(
+        summary,
+        [
+            ("COLOR_0", 3, "uchar"),
+            ("label", 1, "int"),
+            ("quality", 1, "float")
+        ]
+    );
+    let column = |name: &str| -> Vec<Vec<f64>> {
+        let a = mesh
+            .triangle_attributes
+            .iter()
+            .find(|a| a.name == name)
+            .unwrap();
+        (0..mesh.triangle_count()).map(|t| a.vertex(t)).collect()
+    };
+    assert_eq!(
+        column("label"),
+        [[1.0], [9.0], [9.0], [7.0], [7.0], [-3.0]].map(|v| v.to_vec())
+    );
+    assert_eq!(
+        column("quality"),
+        [[0.0], [-2.0], [-2.0], [0.25], [0.25], [1.5]].map(|v| v.to_vec())
+    );
+    assert_eq!(
+        scene.read_notes.not_read,
+        [
+            "PLY face property 'texcoord' (a list per face)",
+            "PLY element 'edge': 1"
+        ]
+    );
+    // Written and read back, through pairing, repair and optimize: every output
+    // triangle has its input triangle's values (`same_corners`), in PLY; the other
+    // formats name them as not held.
+    check_file(&path, &["ply", "glb", "obj"]);
+    let notes = write(&scene, &dir.path().join("faces.glb")).unwrap();
+    assert_eq!(
+        notes.not_held,
+        ["triangle attributes COLOR_0, label, quality (of the formats, PLY alone holds values per triangle)"]
+    );
+    assert_eq!(notes.not_read, scene.read_notes.not_read);
+    let notes = write(&scene, &dir.path().join("faces-again.ply")).unwrap();
+    assert!(notes.not_held.is_empty(), "{:?}", notes.not_held);
+    let header = std::fs::read(dir.path().join("faces-again.ply")).unwrap();
+    let header = String::from_utf8_lossy(&header[..400]);
+    assert!(
+        header.contains("element face 6\nproperty list uchar uint vertex_indices\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty int label\nproperty float quality\n"),
+        "{header}"
     );
 }

@@ -585,3 +585,49 @@ fn a_glb_from_a_gltf_stores_its_image_files() {
     }
     assert_eq!(gltf.images().count(), 2);
 }
+
+#[test]
+fn what_a_reader_leaves_unread_is_named_for_every_output() {
+    let (input, out) = sandbox("not-read");
+    let lines = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nl 1 2 3\nl 2 3\np 1\n";
+    std::fs::write(input.join("a.obj"), lines).unwrap();
+    let scene = rtmesh::io::read(&input.join("a.obj")).unwrap();
+    for file in ["b.obj", "b.ply", "b.stl", "b.glb"] {
+        assert_eq!(
+            rtmesh::io::write(&scene, &out.join(file)).unwrap().not_read,
+            [
+                "OBJ line (`l`) statements: 2 (not triangles)",
+                "OBJ point (`p`) statements: 1 (not triangles)"
+            ],
+            "{file}"
+        );
+    }
+    // A glTF's primitives of lines and points are kept in glTF and named elsewhere.
+    rtmesh::io::write(&scene, &out.join("c.gltf")).unwrap();
+    let text = std::fs::read_to_string(out.join("c.gltf")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let primitives = json["meshes"][0]["primitives"].as_array_mut().unwrap();
+    let mut points = primitives[0].clone();
+    points["mode"] = 0.into();
+    points.as_object_mut().unwrap().remove("indices");
+    primitives.push(points);
+    std::fs::write(out.join("c.gltf"), json.to_string()).unwrap();
+    let document = rtmesh::io::read(&out.join("c.gltf")).unwrap();
+    assert_eq!(document.meshes[0].triangle_count(), 1);
+    let notes = rtmesh::io::write(&document, &out.join("d.gltf")).unwrap();
+    assert!(notes.not_held.is_empty(), "{:?}", notes.not_held);
+    let text = std::fs::read_to_string(out.join("d.gltf")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let modes: Vec<i64> = (json["meshes"][0]["primitives"].as_array().unwrap().iter())
+        .map(|p| p["mode"].as_i64().unwrap_or(4))
+        .collect();
+    assert_eq!(modes, [4, 0]);
+    let notes = rtmesh::io::write(&document, &out.join("c.ply")).unwrap();
+    assert!(
+        notes
+            .not_held
+            .contains(&"primitives of lines or points: 1".to_owned()),
+        "{:?}",
+        notes.not_held
+    );
+}

@@ -49,6 +49,9 @@ pub struct Report {
     embedded_images: Vec<PathBuf>,
     /// What the output's format cannot hold and the output goes without, in words.
     not_held: Vec<String>,
+    /// What the input holds that rtmesh does not read (an OBJ's lines and points, a
+    /// PLY's other elements), so that the output goes without it, in words.
+    not_read: Vec<String>,
 }
 
 /// Read, weld if asked, write.
@@ -75,6 +78,7 @@ pub fn run(args: Args) -> Result<()> {
         embedded_images: copies.embedded,
         written_beside: notes.written_beside,
         not_held: notes.not_held,
+        not_read: notes.not_read,
     };
     emit(&report, args.json, |r| {
         println!(

@@ -102,6 +102,17 @@ pub fn print(name: &str, info: &MeshInfo) {
             a.geometries
         );
     }
+    for a in &info.triangle_attributes {
+        println!(
+            "  triangle attribute {:>10}  {} x {}{}, {} triangles in {} geometries",
+            a.name,
+            a.components,
+            a.component_type,
+            if a.normalized { " (normalized)" } else { "" },
+            a.vertices,
+            a.geometries
+        );
+    }
     let d = &info.document;
     if d.nodes + d.skins + d.animations + d.textures + d.images + d.cameras > 0 {
         println!(
@@ -123,5 +134,8 @@ pub fn print(name: &str, info: &MeshInfo) {
             "  ignored            {:>10} OBJ line and point statements (not triangles)",
             info.ignored_line_and_point_statements
         );
+    }
+    for what in &info.not_read {
+        println!("  not read           {what}");
     }
 }

@@ -150,6 +150,9 @@ pub struct FileReport {
     /// What the output's format cannot hold and the output goes without (an output in
     /// another format than the input), in words.
     not_held: Vec<String>,
+    /// What the input holds that rtmesh does not read (an OBJ's lines and points, a
+    /// PLY's other elements), so that the output goes without it, in words.
+    not_read: Vec<String>,
     ok: bool,
     error: Option<String>,
     /// Wall-clock seconds for this file, reading and writing included.
@@ -474,6 +477,7 @@ fn run_job(job: &Job, settings: &Settings, progress: &dyn Progress) -> FileRepor
         sequences_file: None,
         side_files: Vec::new(),
         not_held: Vec::new(),
+        not_read: Vec::new(),
         ok: false,
         error: None,
         seconds: 0.0,
@@ -517,6 +521,7 @@ fn optimize_file(
             report.side_files = copies.copied;
             report.side_files.extend(notes.written_beside);
             report.not_held = notes.not_held;
+            report.not_read = notes.not_read;
             report.output = Some(output.clone());
             if settings.options.target == Target::Pairs {
                 let mut name = output.clone().into_os_string();

@@ -122,6 +122,16 @@ pub fn run(args: Args) -> Result<()> {
         tunnel_cuts: args.tunnel_cuts as usize,
         partition: args.partition,
     };
+    if let Some(path) = args.output.as_ref() {
+        let names = scene.triangle_attribute_names();
+        if !names.is_empty() {
+            eprintln!(
+                "note: a strip holds no values per triangle, so {} goes without the triangle attributes {} (`rtmesh convert` to .ply keeps them)",
+                path.display(),
+                names.join(", ")
+            );
+        }
+    }
     let (strips, native, seconds) = if matches!(ext.as_str(), "gltf" | "glb") {
         // glTF keeps the scene: each geometry is stripped on its own.
         let mut scene = scene.clone();

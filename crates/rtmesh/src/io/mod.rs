@@ -245,10 +245,14 @@ pub struct WriteNotes {
     /// Vertices whose float skin weights did not sum to one, written scaled so that
     /// they do: glTF asks for normalized weights.
     pub weights_renormalized: usize,
-    /// What the format cannot hold and the output goes without, in words (vertex
-    /// attributes by name, a glTF's skins and animations, material terms MTL has no
-    /// place for). Empty for glTF/GLB, and for a format written from itself.
+    /// What the format cannot hold and the output goes without, in words (vertex or
+    /// triangle attributes by name, a glTF's skins and animations, material terms MTL
+    /// has no place for). Empty for glTF/GLB, and for a format written from itself.
     pub not_held: Vec<String>,
+    /// What the input holds that its reader did not read, so that no output has it, in
+    /// words: an OBJ's lines and points, a PLY's elements other than vertices, faces
+    /// and strips, and its faces' list properties.
+    pub not_read: Vec<String>,
     /// The files written beside the output for it: an OBJ's material library
     /// translated from a glTF's materials (`STEM.mtl`), and the images the glTF stored
     /// itself, extracted for the library to name.
@@ -304,6 +308,7 @@ pub fn write_with_images(
         }
     }
     notes.not_held.splice(0..0, not_held(scene, format));
+    notes.not_read = not_read(&scene.read_notes);
     Ok(notes)
 }
 
@@ -324,17 +329,27 @@ fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::Mtl
 }
 
 /// What `format` cannot hold of `scene`, in words: vertex attributes past what it
-/// stores, materials, several geometries in a format of one, and a glTF document's
-/// nodes, skins, animations and cameras.
+/// stores, triangle attributes, materials, several geometries in a format of one, and
+/// a glTF document's nodes, skins, animations, cameras and primitives of lines or
+/// points.
 fn not_held(scene: &Scene, format: Format) -> Vec<String> {
-    // The vertex attributes the format holds; `None`: every one (PLY).
+    let mut lost = Vec::new();
+    if format != Format::Ply {
+        let names = scene.triangle_attribute_names();
+        if !names.is_empty() {
+            let names = names.join(", ");
+            lost.push(format!(
+                "triangle attributes {names} (of the formats, PLY alone holds values per triangle)"
+            ));
+        }
+    }
+    // The vertex attributes the format holds; `None`: every one (PLY, glTF).
     let held: Option<&[&str]> = match format {
-        Format::Gltf | Format::Glb => return Vec::new(),
+        Format::Gltf | Format::Glb => return lost,
         Format::Obj => Some(&["NORMAL", "TEXCOORD_0", "COLOR_0"]),
         Format::Ply => None,
         Format::Stl => Some(&[]),
     };
-    let mut lost = Vec::new();
     if let Some(held) = held {
         let mut attributes: Vec<&str> = Vec::new();
         let mut morph_targets = false;
@@ -369,6 +384,20 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
         ));
     }
     lost.extend(document_not_held(scene, one_mesh));
+    lost
+}
+
+/// What a reader left unread of a file, in words.
+fn not_read(notes: &crate::mesh::ReadNotes) -> Vec<String> {
+    let mut lost = Vec::new();
+    let statements = [
+        (notes.ignored_lines, "OBJ line (`l`) statements"),
+        (notes.ignored_points, "OBJ point (`p`) statements"),
+    ];
+    for (count, what) in statements.into_iter().filter(|(count, _)| *count > 0) {
+        lost.push(format!("{what}: {count} (not triangles)"));
+    }
+    lost.extend(notes.not_read.iter().cloned());
     lost
 }
 
@@ -413,10 +442,15 @@ fn document_not_held(scene: &Scene, materials: bool) -> Vec<String> {
                 "nodes: {nodes} (their tree, names and transforms; the geometry is written in world space)"
             ));
         }
+        let not_triangles = (root.meshes.iter())
+            .flat_map(|m| &m.primitives)
+            .filter(|p| !gltf::is_triangles(p))
+            .count();
         let counted = [
             (root.skins.len(), "skins"),
             (root.animations.len(), "animations"),
             (root.cameras.len(), "cameras"),
+            (not_triangles, "primitives of lines or points"),
         ];
         for (count, what) in counted.into_iter().filter(|(count, _)| *count > 0) {
             lost.push(format!("{what}: {count}"));

@@ -27,33 +27,53 @@ use std::path::Path;
 /// Extra properties a vertex holds inline; more go to the heap.
 const INLINE: usize = 8;
 
-/// One vertex: its position, and every other scalar property as f64 (exact for every
-/// PLY scalar type) in header order, which is the order ply-rs-bw delivers them in:
-/// the first [`INLINE`] in place (a heap vector per vertex cost a third of the
-/// dragon's read), the rest in `spill`.
-#[derive(Default)]
-struct Vertex {
-    position: Vec3,
-    inline: [f64; INLINE],
+/// Face property values a file may hold on its triangles beyond one per byte of the
+/// file (each a polygon's value, repeated on every triangle of its fan).
+const FACE_VALUE_SLACK: u64 = 16 << 20;
+
+/// An element's scalar properties besides the ones read by name, as f64 (exact for
+/// every PLY scalar type) in header order, which is the order ply-rs-bw delivers them
+/// in: the first `N` in place (a heap vector per vertex cost a third of the dragon's
+/// read), the rest in `spill`. A face keeps none in place: most files' faces have no
+/// property but their indices, and 64 bytes a face would cost the dragon 56 MB.
+struct Extras<const N: usize> {
+    inline: [f64; N],
     spill: Vec<f64>,
-    extras: usize,
+    count: usize,
 }
 
-impl Vertex {
-    fn extra(&self, slot: usize) -> f64 {
-        match slot.checked_sub(INLINE) {
+impl<const N: usize> Default for Extras<N> {
+    fn default() -> Self {
+        Self {
+            inline: [0.0; N],
+            spill: Vec::new(),
+            count: 0,
+        }
+    }
+}
+
+impl<const N: usize> Extras<N> {
+    fn get(&self, slot: usize) -> f64 {
+        match slot.checked_sub(N) {
             None => self.inline[slot],
             Some(s) => self.spill.get(s).copied().unwrap_or(0.0),
         }
     }
 
-    fn push_extra(&mut self, value: f64) {
-        match self.inline.get_mut(self.extras) {
+    fn push(&mut self, value: f64) {
+        match self.inline.get_mut(self.count) {
             Some(slot) => *slot = value,
             None => self.spill.push(value),
         }
-        self.extras += 1;
+        self.count += 1;
     }
+}
+
+/// One vertex: its position and its other scalar properties.
+#[derive(Default)]
+struct Vertex {
+    position: Vec3,
+    extras: Extras<INLINE>,
 }
 
 fn scalar_value(property: &Property) -> Option<f64> {
@@ -70,6 +90,19 @@ fn scalar_value(property: &Property) -> Option<f64> {
     })
 }
 
+impl<const N: usize> Extras<N> {
+    /// Keep `property` when it is a scalar; lists are not kept.
+    fn set(&mut self, property: Property) -> PropertyAccessResult {
+        match scalar_value(&property) {
+            Some(value) => {
+                self.push(value);
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::Ignored,
+        }
+    }
+}
+
 impl PropertyAccess for Vertex {
     fn new() -> Self {
         Self::default()
@@ -80,13 +113,7 @@ impl PropertyAccess for Vertex {
             "y" => 1,
             "z" => 2,
             _ => {
-                return match scalar_value(&property) {
-                    Some(value) => {
-                        self.push_extra(value);
-                        PropertyAccessResult::Set
-                    }
-                    None => PropertyAccessResult::Ignored,
-                };
+                return self.extras.set(property);
             }
         };
         match property.to_f32_lossy() {
@@ -102,7 +129,7 @@ impl PropertyAccess for Vertex {
             "x" => self.position.x = value,
             "y" => self.position.y = value,
             "z" => self.position.z = value,
-            _ => self.push_extra(value.into()),
+            _ => self.extras.push(value.into()),
         }
         PropertyAccessResult::Set
     }
@@ -121,14 +148,14 @@ const KNOWN_GROUPS: &[(&str, &[&str])] = &[
     ("TEXCOORD_0", &["texture_s", "texture_t"]),
 ];
 
-/// The vertex element's extra properties as attributes: known groups of one type
-/// (`nx ny nz`, `red green blue [alpha]`, `u v`, ...) as glTF-named streams, every
-/// other scalar property as a stream of its own name; each keeps its PLY names and
-/// type. `values[v]` holds vertex `v`'s extra properties in `names` order.
-fn vertex_attributes(
+/// An element's extra properties as attributes: known groups of one type (`nx ny nz`,
+/// `red green blue [alpha]`, `u v`, ...) as glTF-named streams, every other scalar
+/// property as a stream of its own name; each keeps its PLY names and type. `rows[i]`
+/// holds element `i`'s extra properties in `names` order.
+fn attributes_of<const N: usize>(
     element: &ElementDef,
     names: &[String],
-    vertices: &[Vertex],
+    rows: &[&Extras<N>],
 ) -> Vec<VertexAttribute> {
     let scalar_type = |name: &str| match element.properties.get(name).map(|p| &p.data_type) {
         Some(PropertyType::Scalar(t)) => Some(t.clone()),
@@ -138,9 +165,9 @@ fn vertex_attributes(
     let mut out = Vec::new();
     let make = |attribute: &str, members: &[usize], taken: &mut Vec<bool>| {
         let scalar = scalar_type(&names[members[0]]).expect("a scalar property");
-        let data: Vec<f64> = vertices
+        let data: Vec<f64> = rows
             .iter()
-            .flat_map(|v| members.iter().map(|&m| v.extra(m)))
+            .flat_map(|row| members.iter().map(|&m| row.get(m)))
             .collect();
         let typed = match scalar {
             ScalarType::Char => AttributeValues::I8(data.iter().map(|&x| x as i8).collect()),
@@ -190,24 +217,47 @@ fn vertex_attributes(
     out
 }
 
+/// One face: its vertex indices and, where `X` keeps them ([`Extras`]), its other
+/// scalar properties. A file whose faces hold nothing else reads them as `Face<()>`:
+/// 32 bytes a face of nothing would cost the dragon's read a tenth of its time.
 #[derive(Default)]
-struct Face(Vec<u32>);
+struct Face<X> {
+    indices: Vec<u32>,
+    extras: X,
+}
+
+/// Where a face keeps its scalar properties besides its indices.
+trait FaceExtras: Default {
+    fn set(&mut self, property: Property) -> PropertyAccessResult;
+}
+
+impl FaceExtras for () {
+    fn set(&mut self, _: Property) -> PropertyAccessResult {
+        PropertyAccessResult::Ignored
+    }
+}
+
+impl FaceExtras for Extras<0> {
+    fn set(&mut self, property: Property) -> PropertyAccessResult {
+        Extras::set(self, property)
+    }
+}
 
 fn is_index_list(name: &str) -> bool {
     name == "vertex_indices" || name == "vertex_index"
 }
 
-impl PropertyAccess for Face {
+impl<X: FaceExtras> PropertyAccess for Face<X> {
     fn new() -> Self {
         Self::default()
     }
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
         if !is_index_list(name) {
-            return PropertyAccessResult::Ignored;
+            return self.extras.set(property);
         }
         match property.to_u32_list() {
             Some(list) => {
-                self.0 = list;
+                self.indices = list;
                 PropertyAccessResult::Set
             }
             None => PropertyAccessResult::UnsupportedType,
@@ -215,7 +265,7 @@ impl PropertyAccess for Face {
     }
     fn begin_list_uint(&mut self, name: &str, _len: usize) -> BeginList<'_, u32> {
         if is_index_list(name) {
-            BeginList::Fill(&mut self.0)
+            BeginList::Fill(&mut self.indices)
         } else {
             BeginList::UseSetter
         }
@@ -225,7 +275,7 @@ impl PropertyAccess for Face {
             return PropertyAccessResult::Ignored;
         }
         // Negative indices become huge ones, caught by the range check.
-        self.0 = value.into_iter().map(|i| i as u32).collect();
+        self.indices = value.into_iter().map(|i| i as u32).collect();
         PropertyAccessResult::Set
     }
 }
@@ -264,6 +314,31 @@ impl PropertyAccess for Strips {
         };
         PropertyAccessResult::Set
     }
+}
+
+/// Append the triangles of `faces` (polygons as fans) to `triangles`, calling
+/// `triangle_of` with the face of each; a face of fewer than three corners is an error.
+fn fan<X>(
+    path: &Path,
+    faces: &[Face<X>],
+    triangles: &mut Vec<[u32; 3]>,
+    mut triangle_of: impl FnMut(usize),
+) -> Result<(), MeshError> {
+    triangles.reserve(faces.len());
+    for (f, face) in faces.iter().enumerate() {
+        let c = &face.indices;
+        if c.len() < 3 {
+            return Err(MeshError::invalid(
+                path,
+                format!("face {f} has {} vertices; a face needs at least 3", c.len()),
+            ));
+        }
+        for i in 1..c.len() - 1 {
+            triangles.push([c[0], c[i], c[i + 1]]);
+            triangle_of(f);
+        }
+    }
+    Ok(())
 }
 
 /// Append the triangles of the strips in `indices` (−1 restarts a strip) to
@@ -389,13 +464,15 @@ pub(super) fn read<R: BufRead>(
         .collect();
     let mut mesh = TriMesh::default();
     let mut dropped = 0;
+    let mut not_read = Vec::new();
     for element in header.elements.values() {
         match element.name.as_str() {
             "vertex" => {
                 let vertices = Parser::<Vertex>::new()
                     .read_payload_for_element(&mut reader, element, &header)
                     .map_err(|e| parse_error(&reader, e))?;
-                mesh.attributes = vertex_attributes(element, &extra, &vertices);
+                let rows: Vec<&Extras<INLINE>> = vertices.iter().map(|v| &v.extras).collect();
+                mesh.attributes = attributes_of(element, &extra, &rows);
                 mesh.positions = vertices.into_iter().map(|v| v.position).collect();
             }
             "face" => {
@@ -405,25 +482,45 @@ pub(super) fn read<R: BufRead>(
                         "'face' element has no 'vertex_indices' list",
                     ));
                 }
-                let faces = Parser::<Face>::new()
+                let (scalars, lists): (Vec<_>, Vec<_>) = (element.properties.values())
+                    .filter(|p| !is_index_list(&p.name))
+                    .partition(|p| matches!(p.data_type, PropertyType::Scalar(_)));
+                let scalars: Vec<String> = scalars.into_iter().map(|p| p.name.clone()).collect();
+                not_read.extend(
+                    lists
+                        .into_iter()
+                        .map(|p| format!("PLY face property '{}' (a list per face)", p.name)),
+                );
+                if scalars.is_empty() {
+                    let faces = Parser::<Face<()>>::new()
+                        .read_payload_for_element(&mut reader, element, &header)
+                        .map_err(|e| parse_error(&reader, e))?;
+                    fan(path, &faces, &mut mesh.triangles, |_| ())?;
+                    continue;
+                }
+                let faces = Parser::<Face<Extras<0>>>::new()
                     .read_payload_for_element(&mut reader, element, &header)
                     .map_err(|e| parse_error(&reader, e))?;
-                mesh.triangles.reserve(faces.len());
-                for (f, face) in faces.iter().enumerate() {
-                    if face.0.len() < 3 {
-                        return Err(MeshError::invalid(
-                            path,
-                            format!(
-                                "face {f} has {} vertices; a face needs at least 3",
-                                face.0.len()
-                            ),
-                        ));
-                    }
-                    let c = &face.0;
-                    for i in 1..c.len() - 1 {
-                        mesh.triangles.push([c[0], c[i], c[i + 1]]);
-                    }
+                // Each triangle of a polygon's fan holds the polygon's properties.
+                let mut rows: Vec<&Extras<0>> = Vec::new();
+                fan(path, &faces, &mut mesh.triangles, |f| {
+                    rows.push(&faces[f].extras)
+                })?;
+                // A polygon's values are repeated on each triangle of its fan: bounded
+                // by the file's size, so that a few faces of thousands of corners and
+                // properties cannot ask for gigabytes.
+                let values = rows.len() as u64 * scalars.len() as u64;
+                if values > total_bytes + FACE_VALUE_SLACK {
+                    return Err(MeshError::invalid(
+                        path,
+                        format!(
+                            "the faces' {} properties repeated on the {} triangles of their fans make {values} values, more than a file of {total_bytes} bytes can mean (a hostile or corrupt file)",
+                            scalars.len(),
+                            rows.len()
+                        ),
+                    ));
                 }
+                mesh.triangle_attributes = attributes_of(element, &scalars, &rows);
             }
             "tristrips" => {
                 if !element.properties.keys().any(|k| is_index_list(k)) {
@@ -444,10 +541,11 @@ pub(super) fn read<R: BufRead>(
                     })?;
                 }
             }
-            _ => {
+            other => {
                 Parser::<DefaultElement>::new()
                     .read_payload_for_element(&mut reader, element, &header)
                     .map_err(|e| parse_error(&reader, e))?;
+                not_read.push(format!("PLY element '{other}': {}", element.count));
             }
         }
     }
@@ -457,6 +555,7 @@ pub(super) fn read<R: BufRead>(
     mesh.group_ids = vec![0; n];
     let mut scene = Scene::from_mesh(mesh);
     scene.read_notes.strip_degenerates_dropped = dropped;
+    scene.read_notes.not_read = not_read;
     Ok(scene)
 }
 
@@ -552,14 +651,7 @@ fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::
     // Morph-target deltas have no PLY meaning without their targets' weights; they
     // are kept like any other attribute, under their own names.
     let attributes: Vec<_> = mesh.attributes.iter().map(as_ply_holds).collect();
-    for attribute in &attributes {
-        for name in property_names(attribute) {
-            vertex.properties.add(PropertyDef::new(
-                name,
-                PropertyType::Scalar(scalar_type(attribute)),
-            ));
-        }
-    }
+    add_properties(&mut vertex, &attributes);
     header.elements.add(vertex);
     let mut face = ElementDef::new(
         if strips.is_some() {
@@ -580,6 +672,12 @@ fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::
     };
     face.properties
         .add(PropertyDef::new("vertex_indices".into(), list));
+    // A strip has no place for a triangle's own properties.
+    let triangle_attributes: Vec<_> = match strips {
+        Some(_) => Vec::new(),
+        None => mesh.triangle_attributes.iter().map(as_ply_holds).collect(),
+    };
+    add_properties(&mut face, &triangle_attributes);
     header.elements.add(face);
     ply_rs_bw::writer::Writer::<DefaultElement>::new()
         .write_header(&mut out, &header)
@@ -610,11 +708,28 @@ fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::
         }
         return out.flush();
     }
-    for t in &mesh.triangles {
-        out.write_all(&[3])?;
-        for v in t {
-            out.write_all(&v.to_le_bytes())?;
+    for (t, triangle) in mesh.triangles.iter().enumerate() {
+        row.clear();
+        row.push(3);
+        for v in triangle {
+            row.extend_from_slice(&v.to_le_bytes());
         }
+        for attribute in &triangle_attributes {
+            attribute.push_vertex_bytes(t, &mut row);
+        }
+        out.write_all(&row)?;
     }
     out.flush()
+}
+
+/// Each attribute's components as scalar properties of `element`, under their PLY
+/// names and in their types.
+fn add_properties(element: &mut ElementDef, attributes: &[std::borrow::Cow<'_, VertexAttribute>]) {
+    use ply_rs_bw::ply::{Addable, PropertyDef};
+    for attribute in attributes {
+        for name in property_names(attribute) {
+            let scalar = PropertyType::Scalar(scalar_type(attribute));
+            element.properties.add(PropertyDef::new(name, scalar));
+        }
+    }
 }

@@ -48,6 +48,11 @@ pub struct MeshInfo {
     pub ignored_line_and_point_statements: usize,
     /// The vertex attributes besides the position, over all geometries.
     pub attributes: Vec<AttributeSummary>,
+    /// The triangle attributes (a PLY face's properties), over all geometries; their
+    /// `vertices` count triangles.
+    pub triangle_attributes: Vec<AttributeSummary>,
+    /// What the file holds that was not read, in words (a PLY's other elements).
+    pub not_read: Vec<String>,
     /// Material names, in order (a reader adds an unnamed default where faces have
     /// none).
     pub material_names: Vec<String>,
@@ -69,7 +74,7 @@ pub struct AttributeSummary {
     pub normalized: bool,
     /// Geometries that have it.
     pub geometries: usize,
-    /// Vertices of those geometries.
+    /// Vertices of those geometries (triangles, for a triangle attribute).
     pub vertices: usize,
 }
 
@@ -116,11 +121,15 @@ impl DocumentSummary {
     }
 }
 
-/// The attributes of every geometry of `scene`, by name, in order of first appearance.
-fn attribute_summaries(scene: &Scene) -> Vec<AttributeSummary> {
+/// The attribute streams `streams` gives of every geometry of `scene`, by name, in
+/// order of first appearance.
+fn attribute_summaries(
+    scene: &Scene,
+    streams: fn(&super::TriMesh) -> &[super::VertexAttribute],
+) -> Vec<AttributeSummary> {
     let mut out: Vec<AttributeSummary> = Vec::new();
     for mesh in &scene.meshes {
-        for attribute in &mesh.attributes {
+        for attribute in streams(mesh) {
             let summary = match out.iter_mut().position(|a| a.name == attribute.name) {
                 Some(i) => &mut out[i],
                 None => {
@@ -169,7 +178,9 @@ impl MeshInfo {
             strip_degenerates_dropped: scene.read_notes.strip_degenerates_dropped,
             ignored_line_and_point_statements: scene.read_notes.ignored_lines
                 + scene.read_notes.ignored_points,
-            attributes: attribute_summaries(scene),
+            attributes: attribute_summaries(scene, |m| &m.attributes),
+            triangle_attributes: attribute_summaries(scene, |m| &m.triangle_attributes),
+            not_read: scene.read_notes.not_read.clone(),
             material_names: scene.materials.iter().map(|m| m.name.clone()).collect(),
             document: DocumentSummary::of(scene),
         }

@@ -138,6 +138,10 @@ pub struct TriMesh {
     /// Per-vertex attributes besides the position, each holding one value per vertex
     /// of `positions`.
     pub attributes: Vec<VertexAttribute>,
+    /// Per-triangle attributes (a PLY face's scalar properties: a colour, a label), each
+    /// holding one value per triangle of `triangles`. A triangle split from another
+    /// (a fan of a polygon, a bisected sliver) holds its source's values.
+    pub triangle_attributes: Vec<VertexAttribute>,
 }
 
 impl TriMesh {
@@ -152,6 +156,7 @@ impl TriMesh {
             alpha_tested: vec![false; n],
             group_ids: vec![0; n],
             attributes: Vec::new(),
+            triangle_attributes: Vec::new(),
         }
     }
 
@@ -180,8 +185,8 @@ impl TriMesh {
         out
     }
 
-    /// Set the per-triangle material, alpha flag and group of every triangle from
-    /// triangle `sources[t]` of `source`.
+    /// Set the per-triangle material, alpha flag, group and attributes of every
+    /// triangle from triangle `sources[t]` of `source`.
     pub fn take_triangle_data(&mut self, source: &TriMesh, sources: &[u32]) {
         let pick = |t: u32| t as usize;
         self.material_ids = sources
@@ -193,16 +198,29 @@ impl TriMesh {
             .map(|&t| source.alpha_tested[pick(t)])
             .collect();
         self.group_ids = sources.iter().map(|&t| source.group_of(pick(t))).collect();
+        self.triangle_attributes = attributes::gather_all(&source.triangle_attributes, sources);
     }
 
-    /// Append one triangle with the material, alpha flag and group of `source`'s
-    /// triangle `t`.
+    /// Append one triangle with the material, alpha flag, group and attributes of
+    /// `source`'s triangle `t`.
     pub fn push_triangle_like(&mut self, triangle: [u32; 3], source: &TriMesh, t: usize) {
+        if self.triangles.is_empty() {
+            self.triangle_attributes = (source.triangle_attributes.iter())
+                .map(VertexAttribute::emptied)
+                .collect();
+        }
         self.group_ids.resize(self.triangles.len(), 0);
         self.triangles.push(triangle);
         self.material_ids.push(source.material_ids[t]);
         self.alpha_tested.push(source.alpha_tested[t]);
         self.group_ids.push(source.group_of(t));
+        for (out, from) in self
+            .triangle_attributes
+            .iter_mut()
+            .zip(&source.triangle_attributes)
+        {
+            out.append_vertex_of(from, t);
+        }
     }
 
     /// Append vertices: their positions and the streams `read` (one value per new
@@ -216,35 +234,20 @@ impl TriMesh {
     ) {
         let base = self.positions.len();
         self.positions.extend(positions);
-        for attribute in read {
-            match self
-                .attributes
-                .iter_mut()
-                .find(|a| a.name == attribute.name)
-            {
-                Some(stream) => stream.append(&attribute),
-                None => {
-                    let mut stream = attribute.emptied();
-                    stream.push_zeros(base);
-                    stream.append(&attribute);
-                    self.attributes.push(stream);
-                }
-            }
-        }
-        let vertices = self.positions.len();
-        for attribute in &mut self.attributes {
-            attribute.push_zeros(vertices - attribute.vertex_count());
-        }
+        append_streams(&mut self.attributes, base, read, self.positions.len());
     }
 
-    /// Append `triangle` with the material, alpha flag and group of this mesh's
-    /// triangle `t` (a triangle split from it).
+    /// Append `triangle` with the material, alpha flag, group and attributes of this
+    /// mesh's triangle `t` (a triangle split from it).
     pub fn push_triangle_like_self(&mut self, t: usize, triangle: [u32; 3]) {
         self.group_ids.resize(self.triangles.len(), 0);
         self.triangles.push(triangle);
         self.material_ids.push(self.material_ids[t]);
         self.alpha_tested.push(self.alpha_tested[t]);
         self.group_ids.push(self.group_of(t));
+        for attribute in &mut self.triangle_attributes {
+            attribute.push_copy(t);
+        }
     }
 
     /// Append vertex `v` of `source` (its position and every attribute); the streams
@@ -410,7 +413,8 @@ impl TriMesh {
 
     /// Append `other`, with its vertices moved by `transform` (normals and tangents
     /// turned with them); material ids are offset by `material_offset`. Attribute
-    /// streams are matched by name; a vertex from a mesh without one gets zeros.
+    /// streams (of vertices and of triangles) are matched by name; a vertex or triangle
+    /// from a mesh without one gets zeros.
     pub fn append(&mut self, other: &TriMesh, transform: &Affine3A, material_offset: u32) {
         let base = self.positions.len() as u32;
         let linear = glam::Mat3::from(transform.matrix3);
@@ -441,6 +445,38 @@ impl TriMesh {
         self.alpha_tested.extend_from_slice(&other.alpha_tested);
         self.group_ids
             .extend((0..other.triangle_count()).map(|t| other.group_of(t)));
+        let before = self.triangles.len() - other.triangle_count();
+        append_streams(
+            &mut self.triangle_attributes,
+            before,
+            other.triangle_attributes.clone(),
+            self.triangles.len(),
+        );
+    }
+}
+
+/// Append the streams `read` (each of `count - before` values) to `streams` (each of
+/// `before`), matched by name: a stream new to `streams` gets zeros for the `before`
+/// values, and a stream `read` lacks gets zeros for the new ones.
+fn append_streams(
+    streams: &mut Vec<VertexAttribute>,
+    before: usize,
+    read: Vec<VertexAttribute>,
+    count: usize,
+) {
+    for attribute in read {
+        match streams.iter_mut().find(|a| a.name == attribute.name) {
+            Some(stream) => stream.append(&attribute),
+            None => {
+                let mut stream = attribute.emptied();
+                stream.push_zeros(before);
+                stream.append(&attribute);
+                streams.push(stream);
+            }
+        }
+    }
+    for stream in streams {
+        stream.push_zeros(count - stream.vertex_count());
     }
 }
 
@@ -516,9 +552,24 @@ pub struct ReadNotes {
     pub ignored_lines: usize,
     /// OBJ `p` (point) statements: not triangles, so ignored.
     pub ignored_points: usize,
+    /// What else the file holds that was not read, in words: a PLY's elements other
+    /// than vertices, faces and strips, and its faces' list properties.
+    pub not_read: Vec<String>,
 }
 
 impl Scene {
+    /// The names of the meshes' triangle attributes, each once, in order of first
+    /// appearance.
+    pub fn triangle_attribute_names(&self) -> Vec<&str> {
+        let mut names: Vec<&str> = Vec::new();
+        for attribute in self.meshes.iter().flat_map(|m| &m.triangle_attributes) {
+            if !names.contains(&attribute.name.as_str()) {
+                names.push(&attribute.name);
+            }
+        }
+        names
+    }
+
     /// A scene of one mesh placed once, untransformed.
     pub fn from_mesh(mesh: TriMesh) -> Self {
         Self {

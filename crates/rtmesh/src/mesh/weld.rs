@@ -155,6 +155,10 @@ fn weld_by(mesh: &TriMesh, tolerance: f32, keep_attributes: bool) -> WeldResult 
             } else {
                 Vec::new()
             },
+            triangle_attributes: match keep_attributes {
+                true => mesh.triangle_attributes.clone(),
+                false => Vec::new(),
+            },
         },
         remap,
         merged,

@@ -13,7 +13,7 @@ mod mtl;
 mod write;
 
 pub(crate) use mtl::{mtl_library, MtlLibrary};
-pub(super) use write::{write, write_strips};
+pub(super) use write::{is_triangles, write, write_strips};
 
 use super::{CountingReader, MeshError};
 use crate::mesh::{

@@ -395,7 +395,9 @@ fn quantized_positions(document: &GltfDocument, m: usize) -> Option<VertexAttrib
     })
 }
 
-fn is_triangles(primitive: &json::mesh::Primitive) -> bool {
+/// Whether `primitive` holds triangles (a list, a strip or a fan), which rtmesh reads;
+/// other primitives (lines, points) are kept from the document as they are.
+pub(crate) fn is_triangles(primitive: &json::mesh::Primitive) -> bool {
     use json::mesh::Mode;
     matches!(
         primitive.mode,
