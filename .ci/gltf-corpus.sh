@@ -76,6 +76,14 @@ run convert "$out/textured/obj/textured.obj" "$out/textured/obj/back.glb"
 run convert "$out/textured/textured.gltf" "$out/textured/from-gltf.glb"
 run convert "$data/animated/CesiumMan.glb" "$out/cesium/cesium.obj" 2> /dev/null
 run convert "$out/cesium/cesium.obj" "$out/cesium/back.glb"
+# A MeshLab PLY (`comment TextureFile`, texture coordinates per corner, `texnumber`)
+# as glTF and GLB, and through OBJ.
+printf 'ply\nformat ascii 1.0\ncomment TextureFile tex/paint.png\ncomment TextureFile tex/normal.png\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nelement face 2\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\nproperty int texnumber\nend_header\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 6 0 0 1 0 1 1 0\n3 0 2 3 6 0.5 0.5 0.25 0.25 0 1 1\n' > "$src/meshlab.ply"
+mkdir -p "$out/meshlab"
+run convert "$src/meshlab.ply" "$out/meshlab/meshlab.gltf"
+run convert "$src/meshlab.ply" "$out/meshlab/meshlab.glb"
+run convert "$src/meshlab.ply" "$out/meshlab/meshlab.obj"
+run convert "$out/meshlab/meshlab.obj" "$out/meshlab/from-obj.glb"
 rm -rf "$src"
 # `animate --motion gltf`: skinned frames baked into one geometry each.
 run animate "$data/animated/Fox.glb" --motion gltf:Run --frames 3 -o "$out/fox-run-frames"

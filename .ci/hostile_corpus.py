@@ -104,8 +104,17 @@ write("any-empty.ply", "")
 write("ok-ply-face-properties.ply",
       "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n"
       "element face 2\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty int label\n"
-      "property list uchar float texcoord\nelement edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n"
-      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3 255 7 0\n3 0 2 3 0 -1 2 0.5 0.5\n0 2\n")
+      "property list uchar int neighbours\nelement edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3 255 7 0\n3 0 2 3 0 -1 2 1 3\n0 2\n")
+# MeshLab's texture comment naming the canary: no output may hold its bytes.
+write("ok-ply-texture-climb.ply",
+      "ply\nformat ascii 1.0\ncomment TextureFile ../canary.bin\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2 6 0 0 1 0 0 1\n")
+write("error-ply-texcoord-count.ply",
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+      "element face 1\nproperty list uchar int vertex_indices\nproperty list uchar float texcoord\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2 3 0 0 1\n")
 # A polygon's properties are repeated on each triangle of its fan: three faces of 3,000
 # corners and 3,000 properties (66 kB) would ask for 27 M values.
 n = 3000

@@ -1100,10 +1100,10 @@ fn meshopt_compressed_views_are_decoded_to_the_data_they_hold() {
 /// others, a quad (two triangles of one face) and a sliver.
 fn ply_with_face_properties(dir: &Path) -> std::path::PathBuf {
     let ply = "ply\nformat ascii 1.0\nelement vertex 6\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n\
-element face 5\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty int label\nproperty list uchar float texcoord\nproperty float quality\n\
+element face 5\nproperty list uchar int vertex_indices\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty int label\nproperty list uchar int neighbours\nproperty float quality\n\
 element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n\
 0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n2 0 0 0 0 1\n2 0.001 0 0 0 1\n\
-3 0 0 3 9 9 9 1 0 0\n3 1 2 5 0 0 255 9 0 -2\n3 1 2 5 0 0 255 9 0 -2\n4 0 1 2 3 255 0 0 7 0 0.25\n3 1 4 5 0 255 0 -3 2 0.5 0.5 1.5\n\
+3 0 0 3 9 9 9 1 0 0\n3 1 2 5 0 0 255 9 0 -2\n3 1 2 5 0 0 255 9 0 -2\n4 0 1 2 3 255 0 0 7 0 0.25\n3 1 4 5 0 255 0 -3 2 4 5 1.5\n\
 0 2\n";
     let path = dir.join("faces.ply");
     std::fs::write(&path, ply).unwrap();
@@ -1147,7 +1147,7 @@ fn a_ply_face_keeps_its_properties_through_every_step() {
     assert_eq!(
         scene.read_notes.not_read,
         [
-            "PLY face property 'texcoord' (a list per face)",
+            "PLY face property 'neighbours' (a list per face)",
             "PLY element 'edge': 1"
         ]
     );

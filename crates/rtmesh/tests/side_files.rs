@@ -631,3 +631,85 @@ fn what_a_reader_leaves_unread_is_named_for_every_output() {
         notes.not_held
     );
 }
+
+/// A MeshLab PLY: two textures named by `comment TextureFile`, faces choosing one by
+/// `texnumber` (the last names none), and texture coordinates per corner, which differ
+/// across the diagonal the two triangles of the quad share (a seam).
+const MESHLAB_PLY: &str = "ply\nformat ascii 1.0\ncomment VCGLIB generated\n\
+comment TextureFile tex/a.png\ncomment TextureFile b.png\nelement vertex 5\n\
+property float x\nproperty float y\nproperty float z\nelement face 3\n\
+property list uchar int vertex_indices\nproperty list uchar float texcoord\nproperty int texnumber\nend_header\n\
+0 0 0\n1 0 0\n1 1 0\n0 1 0\n2 0 0\n\
+3 0 1 2 6 0 0 1 0 1 1 0\n3 0 2 3 6 0.5 0.5 0.25 0.25 0 1 1\n3 1 4 2 6 1 0 2 0 1 1 7\n";
+
+#[test]
+fn a_meshlab_ply_keeps_its_textures_in_every_format() {
+    let (input, out) = sandbox("meshlab");
+    std::fs::write(input.join("scan.ply"), MESHLAB_PLY).unwrap();
+    std::fs::write(input.join("tex/a.png"), PNG).unwrap();
+    std::fs::write(input.join("b.png"), PNG).unwrap();
+    let scene = rtmesh::io::read(&input.join("scan.ply")).unwrap();
+    // Vertices 0 and 2 are copied for the second triangle's other coordinates.
+    assert_eq!(scene.meshes[0].positions.len(), 7);
+    let uvs = corner_uvs(&scene);
+    assert_eq!(
+        uvs,
+        [
+            [0.0, 0.0],
+            [1.0, 0.0],
+            [1.0, 1.0],
+            [0.5, 0.5],
+            [0.25, 0.25],
+            [0.0, 1.0],
+            [1.0, 0.0],
+            [2.0, 0.0],
+            [1.0, 1.0]
+        ]
+    );
+    let maps: Vec<Option<&str>> = (scene.materials.iter())
+        .map(|m| Some(m.mtl.as_ref()?.diffuse_map.as_ref()?.file.as_str()))
+        .collect();
+    assert_eq!(maps, [Some("tex/a.png"), Some("b.png"), None]);
+    assert_eq!(scene.meshes[0].material_ids, [0, 1, 2]);
+    let options = ReadOptions::default();
+    // PLY to PLY elsewhere: the comments, the numbers and the textures come along.
+    let copies = convert(&input.join("scan.ply"), &out.join("scan.ply"), &options);
+    assert_eq!(copies.copied, [out.join("tex/a.png"), out.join("b.png")]);
+    let again = rtmesh::io::read(&out.join("scan.ply")).unwrap();
+    assert_eq!(corner_uvs(&again), uvs);
+    assert_eq!(again.materials, scene.materials);
+    assert_eq!(again.meshes[0].material_ids, [0, 1, 2]);
+    // To OBJ: an MTL library of the two maps, read back to the same corners and maps.
+    convert(&input.join("scan.ply"), &out.join("scan.obj"), &options);
+    let library = std::fs::read_to_string(out.join("scan.mtl")).unwrap();
+    assert!(
+        library.contains("newmtl a\n") && library.contains("map_Kd -s 1 1 1 -o 0 0 0 tex/a.png\n"),
+        "{library}"
+    );
+    let obj = rtmesh::io::read(&out.join("scan.obj")).unwrap();
+    assert_eq!(corner_uvs(&obj), uvs);
+    let obj_maps: Vec<Option<&str>> = (obj.materials.iter())
+        .map(|m| Some(m.mtl.as_ref()?.diffuse_map.as_ref()?.file.as_str()))
+        .collect();
+    assert_eq!(obj_maps, maps);
+    // To GLB: both images stored in it.
+    let copies = copy_side_files(
+        &input.join("scan.ply"),
+        &scene,
+        &out.join("scan.glb"),
+        &options,
+    )
+    .unwrap();
+    assert_eq!(copies.embedded.len(), 2);
+    // A face whose coordinates are not two a corner is an error naming it.
+    let bad = MESHLAB_PLY.replace("6 1 0 2 0 1 1 7", "5 1 0 2 0 1 7");
+    std::fs::write(input.join("bad.ply"), bad).unwrap();
+    let error = rtmesh::io::read(&input.join("bad.ply"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("bad.ply")
+            && error.contains("face 2 has 3 vertices but 5 numbers in 'texcoord'"),
+        "{error}"
+    );
+}

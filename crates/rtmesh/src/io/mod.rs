@@ -301,7 +301,10 @@ pub fn write_with_images(
             let names = names.as_ref().map(|(file, n)| (file.as_str(), &n[..]));
             obj::write(scene, path, names).map_err(io_error)?
         }
-        Format::Ply => ply::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
+        Format::Ply => {
+            let flat = scene.flatten().map_err(too_large)?;
+            ply::write(&flat, &scene.materials, path).map_err(io_error)?
+        }
         Format::Stl => stl::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
         Format::Gltf | Format::Glb => {
             notes = gltf::write(scene, path, format == Format::Glb, images).map_err(io_error)?;
@@ -315,16 +318,19 @@ pub fn write_with_images(
 /// For an OBJ written from a glTF with materials: the material library translated from
 /// them ([`gltf::mtl_library`]) and its file name, `STEM.mtl` beside the output.
 fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::MtlLibrary)> {
-    let Some(Document::Gltf(document)) = scene.document.as_deref() else {
-        return None;
-    };
-    if document.root().materials.is_empty() {
-        return None;
-    }
     let stem = path.file_stem()?.to_string_lossy();
     // One word, so that `mtllib` and the maps name it whole.
     let stem = stem.replace(char::is_whitespace, "_");
-    let library = gltf::mtl_library(document, scene.materials.len(), &stem);
+    let library = match scene.document.as_deref() {
+        Some(Document::Gltf(document)) if !document.root().materials.is_empty() => {
+            gltf::mtl_library(document, scene.materials.len(), &stem)
+        }
+        // A PLY's textures: the looks written as MTL.
+        None if scene.materials.iter().any(|m| m.mtl.is_some()) => {
+            obj::looks_library(&scene.materials)
+        }
+        _ => return None,
+    };
     Some((format!("{stem}.mtl"), library))
 }
 
@@ -335,7 +341,11 @@ fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::Mtl
 fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     let mut lost = Vec::new();
     if format != Format::Ply {
-        let names = scene.triangle_attribute_names();
+        let mut names = scene.triangle_attribute_names();
+        // MeshLab's texture numbers are the triangles' materials, which every format holds.
+        if ply::texture_files(&scene.materials).is_some() {
+            names.retain(|&name| name != ply::TEXNUMBER);
+        }
         if !names.is_empty() {
             let names = names.join(", ");
             lost.push(format!(
@@ -383,7 +393,17 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
             "geometries: {placed} (merged into one mesh, their names with them)"
         ));
     }
-    lost.extend(document_not_held(scene, one_mesh));
+    // PLY holds a texture file per material (MeshLab's comments), and no more.
+    let ply_textures = format == Format::Ply && ply::texture_files(&scene.materials).is_some();
+    if ply_textures
+        && scene
+            .materials
+            .iter()
+            .any(|m| m.mtl.as_ref().is_some_and(|l| !l.is_plain_texture()))
+    {
+        lost.push("materials' colours and maps other than the diffuse texture (PLY holds a texture file per material)".to_owned());
+    }
+    lost.extend(document_not_held(scene, one_mesh && !ply_textures));
     lost
 }
 

@@ -615,6 +615,57 @@ fn write_distinct<const N: usize>(
     Ok((of_vertex, index.len()))
 }
 
+/// An MTL library for `materials` that hold an MTL look (a PLY's textures) and no
+/// library of their own: each material's colours and maps as MTL states them, named
+/// by its name (or `materialN`, each name once).
+pub(super) fn looks_library(materials: &[crate::mesh::Material]) -> super::gltf::MtlLibrary {
+    use std::fmt::Write as _;
+    let mut library = super::gltf::MtlLibrary::default();
+    let _ = writeln!(
+        library.text,
+        "# written by rtmesh {}",
+        env!("CARGO_PKG_VERSION")
+    );
+    for (i, material) in materials.iter().enumerate() {
+        let mut name = material.name.replace(char::is_whitespace, "_");
+        if name.is_empty() || library.names.contains(&name) {
+            name = format!("material{i}");
+        }
+        let _ = writeln!(library.text, "\nnewmtl {name}");
+        if let Some(look) = &material.mtl {
+            let [r, g, b] = look.diffuse;
+            let _ = writeln!(library.text, "Kd {r} {g} {b}\nd {}", look.dissolve);
+            let [r, g, b] = look.emissive;
+            let _ = writeln!(library.text, "Ke {r} {g} {b}");
+            for (key, value) in [("Pm", look.metallic), ("Pr", look.roughness)] {
+                if let Some(value) = value {
+                    let _ = writeln!(library.text, "{key} {value}");
+                }
+            }
+            let maps = [
+                ("map_Kd", &look.diffuse_map),
+                ("norm", &look.normal_map),
+                ("map_Ke", &look.emissive_map),
+                ("map_Pm", &look.metallic_roughness_map),
+                ("map_Pr", &look.metallic_roughness_map),
+            ];
+            for (key, map) in maps {
+                if let Some(MtlMap {
+                    file,
+                    scale,
+                    offset,
+                }) = map
+                {
+                    let ([su, sv], [ou, ov]) = (scale, offset);
+                    let _ = writeln!(library.text, "{key} -s {su} {sv} 1 -o {ou} {ov} 0 {file}");
+                }
+            }
+        }
+        library.names.push(name);
+    }
+    library
+}
+
 /// Write `scene` as OBJ to `path`. Its materials are named as read, or, with
 /// `library` (a library written for it: its file name and each material's name), by
 /// that library's names.

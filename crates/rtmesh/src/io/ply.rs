@@ -14,12 +14,12 @@
 //! back. The writer emits binary little-endian PLY.
 
 use super::{CountingReader, MeshError};
-use crate::mesh::{AttributeValues, Scene, TriMesh, VertexAttribute};
+use crate::mesh::{AttributeValues, Material, MtlLook, Scene, TriMesh, VertexAttribute};
 use glam::Vec3;
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{
     BeginList, DefaultElement, ElementDef, Encoding, Property, PropertyAccess,
-    PropertyAccessResult, PropertyType, ScalarType,
+    PropertyAccessResult, PropertyDef, PropertyType, ScalarType,
 };
 use std::io::{BufRead, Write};
 use std::path::Path;
@@ -226,20 +226,39 @@ struct Face<X> {
     extras: X,
 }
 
-/// Where a face keeps its scalar properties besides its indices.
+/// Where a face keeps its properties besides its indices.
 trait FaceExtras: Default {
-    fn set(&mut self, property: Property) -> PropertyAccessResult;
+    fn set(&mut self, name: &str, property: Property) -> PropertyAccessResult;
 }
 
 impl FaceExtras for () {
-    fn set(&mut self, _: Property) -> PropertyAccessResult {
+    fn set(&mut self, _: &str, _: Property) -> PropertyAccessResult {
         PropertyAccessResult::Ignored
     }
 }
 
-impl FaceExtras for Extras<0> {
-    fn set(&mut self, property: Property) -> PropertyAccessResult {
-        Extras::set(self, property)
+/// MeshLab's per-corner texture coordinates: a face list of u, v for each corner.
+const WEDGE_TEXCOORD: &str = "texcoord";
+
+/// A face's scalar properties, and its corners' texture coordinates ([`WEDGE_TEXCOORD`],
+/// as f32: MeshLab writes them so).
+#[derive(Default)]
+struct FaceRest {
+    extras: Extras<0>,
+    texcoord: Vec<f32>,
+}
+
+impl FaceExtras for FaceRest {
+    fn set(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        if name != WEDGE_TEXCOORD {
+            return self.extras.set(property);
+        }
+        self.texcoord = match property {
+            Property::ListFloat(uv) => uv,
+            Property::ListDouble(uv) => uv.into_iter().map(|x| x as f32).collect(),
+            _ => return PropertyAccessResult::Ignored,
+        };
+        PropertyAccessResult::Set
     }
 }
 
@@ -253,7 +272,7 @@ impl<X: FaceExtras> PropertyAccess for Face<X> {
     }
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
         if !is_index_list(name) {
-            return self.extras.set(property);
+            return self.extras.set(name, property);
         }
         match property.to_u32_list() {
             Some(list) => {
@@ -317,12 +336,13 @@ impl PropertyAccess for Strips {
 }
 
 /// Append the triangles of `faces` (polygons as fans) to `triangles`, calling
-/// `triangle_of` with the face of each; a face of fewer than three corners is an error.
+/// `triangle_of(f, i)` for each: face `f`'s corners 0, `i` and `i + 1`; a face of
+/// fewer than three corners is an error.
 fn fan<X>(
     path: &Path,
     faces: &[Face<X>],
     triangles: &mut Vec<[u32; 3]>,
-    mut triangle_of: impl FnMut(usize),
+    mut triangle_of: impl FnMut(usize, usize) -> Result<(), MeshError>,
 ) -> Result<(), MeshError> {
     triangles.reserve(faces.len());
     for (f, face) in faces.iter().enumerate() {
@@ -335,7 +355,7 @@ fn fan<X>(
         }
         for i in 1..c.len() - 1 {
             triangles.push([c[0], c[i], c[i + 1]]);
-            triangle_of(f);
+            triangle_of(f, i)?;
         }
     }
     Ok(())
@@ -465,6 +485,7 @@ pub(super) fn read<R: BufRead>(
     let mut mesh = TriMesh::default();
     let mut dropped = 0;
     let mut not_read = Vec::new();
+    let mut wedge_texcoords = None;
     for element in header.elements.values() {
         match element.name.as_str() {
             "vertex" => {
@@ -486,26 +507,48 @@ pub(super) fn read<R: BufRead>(
                     .filter(|p| !is_index_list(&p.name))
                     .partition(|p| matches!(p.data_type, PropertyType::Scalar(_)));
                 let scalars: Vec<String> = scalars.into_iter().map(|p| p.name.clone()).collect();
+                let is_wedge = |p: &PropertyDef| {
+                    p.name == WEDGE_TEXCOORD
+                        && matches!(
+                            p.data_type,
+                            PropertyType::List(_, ScalarType::Float | ScalarType::Double)
+                        )
+                };
+                let wedge = lists.iter().any(|p| is_wedge(p));
                 not_read.extend(
                     lists
                         .into_iter()
+                        .filter(|p| !is_wedge(p))
                         .map(|p| format!("PLY face property '{}' (a list per face)", p.name)),
                 );
-                if scalars.is_empty() {
+                if scalars.is_empty() && !wedge {
                     let faces = Parser::<Face<()>>::new()
                         .read_payload_for_element(&mut reader, element, &header)
                         .map_err(|e| parse_error(&reader, e))?;
-                    fan(path, &faces, &mut mesh.triangles, |_| ())?;
+                    fan(path, &faces, &mut mesh.triangles, |_, _| Ok(()))?;
                     continue;
                 }
-                let faces = Parser::<Face<Extras<0>>>::new()
+                let faces = Parser::<Face<FaceRest>>::new()
                     .read_payload_for_element(&mut reader, element, &header)
                     .map_err(|e| parse_error(&reader, e))?;
-                // Each triangle of a polygon's fan holds the polygon's properties.
+                // Each triangle of a polygon's fan holds the polygon's properties, and
+                // its own three corners' texture coordinates.
                 let mut rows: Vec<&Extras<0>> = Vec::new();
-                fan(path, &faces, &mut mesh.triangles, |f| {
-                    rows.push(&faces[f].extras)
+                let first = mesh.triangles.len();
+                let mut uvs = Vec::new();
+                fan(path, &faces, &mut mesh.triangles, |f, i| {
+                    let face = &faces[f];
+                    if !scalars.is_empty() {
+                        rows.push(&face.extras.extras);
+                    }
+                    if wedge {
+                        uvs.push(corner_texcoords(path, f, face, i)?);
+                    }
+                    Ok(())
                 })?;
+                if wedge {
+                    wedge_texcoords = Some((first, uvs));
+                }
                 // A polygon's values are repeated on each triangle of its fan: bounded
                 // by the file's size, so that a few faces of thousands of corners and
                 // properties cannot ask for gigabytes.
@@ -549,14 +592,133 @@ pub(super) fn read<R: BufRead>(
             }
         }
     }
+    if let Some((first, uvs)) = wedge_texcoords {
+        split_by_texcoords(&mut mesh, first, &uvs);
+    }
     let n = mesh.triangles.len();
-    mesh.material_ids = vec![0; n];
+    let materials = texture_materials(&header.comments);
+    mesh.material_ids = texture_numbers(&mesh, materials.len());
     mesh.alpha_tested = vec![false; n];
     mesh.group_ids = vec![0; n];
     let mut scene = Scene::from_mesh(mesh);
+    if !materials.is_empty() {
+        scene.materials = materials;
+        let plain = scene.meshes[0].material_ids.iter().max();
+        if plain.is_some_and(|&m| m as usize >= scene.materials.len()) {
+            scene.materials.push(Material::default());
+        }
+    }
     scene.read_notes.strip_degenerates_dropped = dropped;
     scene.read_notes.not_read = not_read;
     Ok(scene)
+}
+
+/// Face `f`'s texture coordinates at its corners 0, `i` and `i + 1` (zeros for a face
+/// with none); a face with other than two numbers a corner is an error.
+fn corner_texcoords(
+    path: &Path,
+    f: usize,
+    face: &Face<FaceRest>,
+    i: usize,
+) -> Result<[[f32; 2]; 3], MeshError> {
+    let uv = &face.extras.texcoord;
+    let corners = face.indices.len();
+    if uv.is_empty() {
+        return Ok([[0.0; 2]; 3]);
+    }
+    if uv.len() != 2 * corners {
+        return Err(MeshError::invalid(
+            path,
+            format!(
+                "face {f} has {corners} vertices but {} numbers in '{WEDGE_TEXCOORD}' (u and v for each corner)",
+                uv.len()
+            ),
+        ));
+    }
+    Ok([0, i, i + 1].map(|k| [uv[2 * k], uv[2 * k + 1]]))
+}
+
+/// Per-corner texture coordinates (`uvs[t]` for triangle `first + t`) as a vertex
+/// attribute: a vertex whose corners differ in them (a seam) is copied, with every
+/// attribute, once for each other pair, as OBJ's reader does for `vt`.
+fn split_by_texcoords(mesh: &mut TriMesh, first: usize, uvs: &[[[f32; 2]; 3]]) {
+    let n = mesh.positions.len();
+    let bits = |uv: [f32; 2]| uv.map(f32::to_bits);
+    let mut texcoords = vec![[0.0f32; 2]; n];
+    let mut taken: Vec<Option<[u32; 2]>> = vec![None; n];
+    let mut copies: std::collections::HashMap<(u32, [u32; 2]), u32> = Default::default();
+    for (t, corners) in uvs.iter().enumerate() {
+        for (k, &uv) in corners.iter().enumerate() {
+            let v = mesh.triangles[first + t][k];
+            let Some(slot) = taken.get_mut(v as usize) else {
+                continue; // out of range: the index check reports it
+            };
+            match *slot {
+                None => {
+                    *slot = Some(bits(uv));
+                    texcoords[v as usize] = uv;
+                }
+                Some(held) if held == bits(uv) => {}
+                Some(_) => {
+                    let copy = *copies.entry((v, bits(uv))).or_insert_with(|| {
+                        texcoords.push(uv);
+                        mesh.copy_vertex(v as usize)
+                    });
+                    mesh.triangles[first + t][k] = copy;
+                }
+            }
+        }
+    }
+    let held: Vec<&str> = mesh.attributes.iter().map(|a| a.name.as_str()).collect();
+    let name = (0..)
+        .map(|set| format!("TEXCOORD_{set}"))
+        .find(|name| !held.contains(&name.as_str()))
+        .expect("a free texture coordinate set");
+    let mut attribute = VertexAttribute::from_f32(&name, &texcoords);
+    attribute.component_names = vec!["texture_u".into(), "texture_v".into()];
+    mesh.attributes.push(attribute);
+}
+
+/// MeshLab's comment naming a texture: `comment TextureFile NAME`.
+const TEXTURE_FILE: &str = "TextureFile";
+
+/// MeshLab's face property naming a face's texture, an index into the
+/// [`TEXTURE_FILE`] comments.
+pub(super) const TEXNUMBER: &str = "texnumber";
+
+/// The materials of MeshLab's [`TEXTURE_FILE`] comments, in order (the faces'
+/// `texnumber` indexes them): each a white material with NAME as its diffuse map.
+fn texture_materials(comments: &[String]) -> Vec<Material> {
+    let files = (comments.iter())
+        .filter_map(|c| c.trim().strip_prefix(TEXTURE_FILE))
+        .map(str::trim)
+        .filter(|file| !file.is_empty());
+    let material = |file: &str| Material {
+        name: (Path::new(file).file_stem())
+            .map(|s| s.to_string_lossy().replace(char::is_whitespace, "_"))
+            .unwrap_or_default(),
+        alpha_tested: false,
+        mtl: Some(MtlLook::plain_texture(file)),
+    };
+    files.map(material).collect()
+}
+
+/// Each triangle's material: its face's `texnumber` (kept as a triangle attribute too)
+/// where it names one of the `textures`; `textures` (an untextured material after them)
+/// where it names none; 0 without a `texnumber` property.
+fn texture_numbers(mesh: &TriMesh, textures: usize) -> Vec<u32> {
+    let n = mesh.triangles.len();
+    let numbers = (mesh.triangle_attributes.iter())
+        .find(|a| a.name == TEXNUMBER && a.components == 1)
+        .filter(|_| textures > 0);
+    let Some(numbers) = numbers else {
+        return vec![0; n];
+    };
+    let material = |number: f64| match number >= 0.0 && number < textures as f64 {
+        true => number as u32,
+        false => textures as u32,
+    };
+    (0..n).map(|t| material(numbers.get(t, 0))).collect()
 }
 
 /// The PLY names of an attribute's components: the source's, or `nx ny nz`,
@@ -618,8 +780,26 @@ fn as_ply_holds(attribute: &VertexAttribute) -> std::borrow::Cow<'_, VertexAttri
 /// every attribute's components under their PLY names and types), the payload in bulk
 /// in the header's order (per-property callbacks cost several times as much on the
 /// dragon).
-pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
-    write_with(mesh, None, path)
+pub(super) fn write(mesh: &TriMesh, materials: &[Material], path: &Path) -> std::io::Result<()> {
+    write_with(mesh, texture_files(materials).as_deref(), None, path)
+}
+
+/// The texture files MeshLab's [`TEXTURE_FILE`] comments can give `materials`: each
+/// material's diffuse map, in order, where every material has one (past the last, plain
+/// materials may follow: those a `texnumber` names no texture for); `None` otherwise.
+pub(super) fn texture_files(materials: &[Material]) -> Option<Vec<&str>> {
+    fn map(m: &Material) -> Option<&str> {
+        m.mtl
+            .as_ref()?
+            .diffuse_map
+            .as_ref()
+            .map(|m| m.file.as_str())
+    }
+    let textured = materials.iter().take_while(|m| map(m).is_some()).count();
+    let rest_plain = materials[textured..]
+        .iter()
+        .all(|m| *m == Material::default());
+    (textured > 0 && rest_plain).then(|| materials[..textured].iter().filter_map(map).collect())
 }
 
 /// [`write`] with the triangles as one `tristrips` element instead of faces: the
@@ -629,10 +809,15 @@ pub(super) fn write_strips(
     strips: &[Vec<u32>],
     path: &Path,
 ) -> std::io::Result<()> {
-    write_with(mesh, Some(strips), path)
+    write_with(mesh, None, Some(strips), path)
 }
 
-fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::io::Result<()> {
+fn write_with(
+    mesh: &TriMesh,
+    textures: Option<&[&str]>,
+    strips: Option<&[Vec<u32>]>,
+    path: &Path,
+) -> std::io::Result<()> {
     use ply_rs_bw::ply::{Addable, Header, PropertyDef};
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
     let mut header = Header::new();
@@ -640,6 +825,9 @@ fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::
     header
         .comments
         .push(format!("written by rtmesh {}", env!("CARGO_PKG_VERSION")));
+    for file in textures.into_iter().flatten() {
+        header.comments.push(format!("{TEXTURE_FILE} {file}"));
+    }
     let mut vertex = ElementDef::new("vertex".into());
     vertex.count = mesh.positions.len();
     for axis in ["x", "y", "z"] {
@@ -673,10 +861,22 @@ fn write_with(mesh: &TriMesh, strips: Option<&[Vec<u32>]>, path: &Path) -> std::
     face.properties
         .add(PropertyDef::new("vertex_indices".into(), list));
     // A strip has no place for a triangle's own properties.
-    let triangle_attributes: Vec<_> = match strips {
+    let mut triangle_attributes: Vec<_> = match strips {
         Some(_) => Vec::new(),
         None => mesh.triangle_attributes.iter().map(as_ply_holds).collect(),
     };
+    // Several textures: each face names its own by `texnumber`, unless it holds one.
+    let numbered = triangle_attributes.iter().any(|a| a.name == TEXNUMBER);
+    if textures.is_some_and(|t| t.len() > 1) && !numbered && strips.is_none() {
+        let numbers: Vec<i32> = mesh.material_ids.iter().map(|&m| m as i32).collect();
+        triangle_attributes.push(std::borrow::Cow::Owned(VertexAttribute {
+            name: TEXNUMBER.to_owned(),
+            components: 1,
+            normalized: false,
+            values: AttributeValues::I32(numbers),
+            component_names: vec![TEXNUMBER.to_owned()],
+        }));
+    }
     add_properties(&mut face, &triangle_attributes);
     header.elements.add(face);
     ply_rs_bw::writer::Writer::<DefaultElement>::new()

@@ -131,8 +131,18 @@ fn references(input: &Path, scene: &Scene, format: Format, root: &Path) -> Vec<R
                 references.push(Reference::new(input, reference));
             }
         }
-        (_, Format::Gltf | Format::Glb) => {
-            // A fresh document: the images are the MTL textures the materials name.
+        (_, Format::Ply) => {
+            // MeshLab's comments name the materials' diffuse maps.
+            let files = super::ply::texture_files(&scene.materials).unwrap_or_default();
+            references.extend(
+                files
+                    .into_iter()
+                    .map(|f| Reference::new(input, f.to_owned())),
+            );
+        }
+        (None, Format::Obj) | (_, Format::Gltf | Format::Glb) => {
+            // A fresh document, or an MTL library written from the looks (a PLY's
+            // textures): the images are the MTL textures the materials name.
             for look in scene.materials.iter().filter_map(|m| m.mtl.as_ref()) {
                 let maps = look.texture_files().cloned();
                 references.extend(maps.map(|map| Reference::new(input, map)));

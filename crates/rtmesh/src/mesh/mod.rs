@@ -105,6 +105,34 @@ pub struct MtlMap {
 }
 
 impl MtlLook {
+    /// A white, opaque material whose look is its diffuse map alone (what a PLY's
+    /// `TextureFile` comment says).
+    pub fn plain_texture(file: &str) -> Self {
+        Self {
+            diffuse: [1.0; 3],
+            dissolve: 1.0,
+            emissive: [0.0; 3],
+            metallic: None,
+            roughness: None,
+            diffuse_map: Some(MtlMap {
+                file: file.to_owned(),
+                scale: [1.0; 2],
+                offset: [0.0; 2],
+            }),
+            normal_map: None,
+            emissive_map: None,
+            metallic_roughness_map: None,
+            dissolve_map: false,
+        }
+    }
+
+    /// Whether it is [`MtlLook::plain_texture`] of its diffuse map.
+    pub fn is_plain_texture(&self) -> bool {
+        self.diffuse_map
+            .as_ref()
+            .is_some_and(|map| *self == Self::plain_texture(&map.file))
+    }
+
     /// The texture files it names: the diffuse, normal, emissive and
     /// metallic-roughness maps.
     pub fn texture_files(&self) -> impl Iterator<Item = &String> {
