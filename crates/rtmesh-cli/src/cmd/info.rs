@@ -91,27 +91,22 @@ pub fn print(name: &str, info: &MeshInfo) {
         "  broken triangles   {:>10} non-finite, {} repeated-vertex, {} zero-area",
         info.non_finite_triangles, info.repeated_vertex_triangles, info.zero_area_triangles
     );
-    for a in &info.attributes {
-        println!(
-            "  attribute          {:>10}  {} x {}{}, {} vertices in {} geometries",
-            a.name,
-            a.components,
-            a.component_type,
-            if a.normalized { " (normalized)" } else { "" },
-            a.vertices,
-            a.geometries
-        );
-    }
-    for a in &info.triangle_attributes {
-        println!(
-            "  triangle attribute {:>10}  {} x {}{}, {} triangles in {} geometries",
-            a.name,
-            a.components,
-            a.component_type,
-            if a.normalized { " (normalized)" } else { "" },
-            a.vertices,
-            a.geometries
-        );
+    let streams = [
+        ("attribute         ", &info.attributes, "vertices"),
+        ("triangle attribute", &info.triangle_attributes, "triangles"),
+    ];
+    for (label, attributes, of) in streams {
+        for a in attributes {
+            println!(
+                "  {label} {:>10}  {} x {}{}, {} {of} in {} geometries",
+                a.name,
+                a.components,
+                a.component_type,
+                if a.normalized { " (normalized)" } else { "" },
+                a.vertices,
+                a.geometries
+            );
+        }
     }
     let d = &info.document;
     if d.nodes + d.skins + d.animations + d.textures + d.images + d.cameras > 0 {
