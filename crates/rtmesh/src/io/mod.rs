@@ -342,6 +342,10 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     let mut lost = Vec::new();
     if format != Format::Ply {
         let mut names = scene.triangle_attribute_names();
+        // STL keeps its own attribute word.
+        if format == Format::Stl {
+            names.retain(|&name| name != stl::ATTRIBUTE_WORD);
+        }
         // MeshLab's texture numbers are the triangles' materials, which every format holds.
         if ply::texture_files(&scene.materials).is_some() {
             names.retain(|&name| name != ply::TEXNUMBER);

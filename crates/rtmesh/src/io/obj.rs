@@ -211,6 +211,16 @@ pub(super) fn read<R: BufRead>(
     }
     scene.read_notes.ignored_lines = ignored_lines;
     scene.read_notes.ignored_points = ignored_points;
+    // Smoothing groups say how a tool builds normals for a file that has none; where
+    // the file has `vn`, those hold what they meant.
+    let smoothing = arguments(&text, b"s")
+        .filter(|g| g != "off" && g != "0")
+        .count();
+    if smoothing > 0 && statements(&text, b"vn").next().is_none() {
+        scene.read_notes.not_read.push(format!(
+            "OBJ smoothing groups (`s`): {smoothing} statements, in a file without normals (`vn`)"
+        ));
+    }
     if needs_default || scene.materials.is_empty() {
         scene.materials.push(Material::default());
     }

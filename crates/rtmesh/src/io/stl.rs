@@ -12,8 +12,12 @@
 //! not hold, an error naming the file. Cost: O(T) to parse, plus the weld (hashing, O(T)); memory: the file's bytes
 //! and the corners.
 //!
+//! A binary facet's 16-bit attribute word, where any facet's is not zero (colour
+//! extensions keep a facet colour in it), is kept as the triangle attribute
+//! [`ATTRIBUTE_WORD`], in PLY a face property of that name.
+//!
 //! The writer emits binary STL of the flattened scene, with the facet normals computed
-//! from the corners.
+//! from the corners and the attribute words kept (zero for a mesh without them).
 
 use super::{CountingReader, MeshError};
 use crate::mesh::{weld_exact, Scene, TriMesh};
@@ -60,6 +64,9 @@ pub(super) fn read<R: BufRead>(
     ))
 }
 
+/// The triangle attribute holding binary STL's per-facet attribute word.
+pub const ATTRIBUTE_WORD: &str = "stl_attribute";
+
 /// A binary STL whose size matches its count.
 fn read_binary(bytes: &[u8]) -> Scene {
     let float = |at: &[u8]| f32::from_le_bytes(at[..4].try_into().expect("four bytes"));
@@ -72,8 +79,21 @@ fn read_binary(bytes: &[u8]) -> Scene {
                 .map(|c| Vec3::new(float(&c[0..]), float(&c[4..]), float(&c[8..])))
         })
         .collect();
+    let words: Vec<u16> = (bytes[HEADER_BYTES..].chunks_exact(FACET_BYTES))
+        .map(|facet| u16::from_le_bytes([facet[48], facet[49]]))
+        .collect();
+    let mut mesh = welded(String::new(), corners);
+    if words.iter().any(|&w| w != 0) {
+        mesh.triangle_attributes.push(crate::mesh::VertexAttribute {
+            name: ATTRIBUTE_WORD.to_owned(),
+            components: 1,
+            normalized: false,
+            values: crate::mesh::AttributeValues::U16(words),
+            component_names: vec![ATTRIBUTE_WORD.to_owned()],
+        });
+    }
     let mut scene = Scene::default();
-    scene.push_mesh(welded(String::new(), corners), Affine3A::IDENTITY);
+    scene.push_mesh(mesh, Affine3A::IDENTITY);
     finish(scene)
 }
 
@@ -194,6 +214,8 @@ pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
     header[..title.len()].copy_from_slice(title.as_bytes());
     out.write_all(&header)?;
     out.write_all(&count.to_le_bytes())?;
+    let words =
+        (mesh.triangle_attributes.iter()).find(|a| a.name == ATTRIBUTE_WORD && a.components == 1);
     for t in 0..mesh.triangle_count() {
         let [a, b, c] = mesh.corners(t);
         let normal = (b - a).cross(c - a).normalize_or_zero();
@@ -202,7 +224,8 @@ pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
                 out.write_all(&x.to_le_bytes())?;
             }
         }
-        out.write_all(&[0, 0])?;
+        let word = words.map_or(0, |w| w.get(t, 0) as u16);
+        out.write_all(&word.to_le_bytes())?;
     }
     out.flush()
 }

@@ -395,6 +395,48 @@ fn stl_errors_name_the_file_and_line() {
 }
 
 #[test]
+fn stl_attribute_words_are_kept_per_triangle() {
+    let square = [
+        [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+        [[1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
+    ];
+    let plain = binary_stl(&square, 2);
+    let scene = read_bytes(Path::new("plain.stl"), &plain).unwrap();
+    assert!(scene.meshes[0].triangle_attributes.is_empty());
+    // A facet colour in the word (VisCAM's: bit 15 set, then 5-5-5 bits), on the second.
+    let mut coloured = plain.clone();
+    coloured[84 + 2 * 50 - 2..84 + 2 * 50].copy_from_slice(&0x801fu16.to_le_bytes());
+    let scene = read_bytes(Path::new("coloured.stl"), &coloured).unwrap();
+    let words = |scene: &Scene| -> Vec<f64> {
+        let mesh = &scene.meshes[0];
+        let word = &mesh.triangle_attributes[0];
+        assert_eq!(word.name, stl::ATTRIBUTE_WORD);
+        (0..mesh.triangle_count()).map(|t| word.get(t, 0)).collect()
+    };
+    assert_eq!(words(&scene), [0.0, 0x801f as f64]);
+    for extension in ["stl", "ply"] {
+        assert_eq!(
+            words(&round_trip(&scene, extension)),
+            [0.0, 0x801f as f64],
+            "{extension}"
+        );
+    }
+    let dir = std::env::temp_dir().join(format!("rtmesh-io-stl-words-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write(&scene, &dir.join("same.stl")).unwrap();
+    let written = std::fs::read(dir.join("same.stl")).unwrap();
+    let facet_words = |bytes: &[u8]| -> Vec<[u8; 2]> {
+        (bytes[84..].chunks_exact(50))
+            .map(|f| [f[48], f[49]])
+            .collect()
+    };
+    assert_eq!(facet_words(&written), facet_words(&coloured));
+    let notes = write(&scene, &dir.join("out.glb")).unwrap();
+    assert_eq!(notes.not_held.len(), 1, "{:?}", notes.not_held);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn stl_round_trip_keeps_corners_and_order_bit_exact() {
     let scene = scenes::by_name("room").unwrap();
     let back = round_trip(&scene, "stl");
@@ -543,4 +585,17 @@ fn obj_keeps_usemtl_names_and_mtllib_without_the_library() {
         .map(|&v| uv.vertex(v as usize))
         .collect();
     assert_eq!(corner_uvs, [vec![1.0, 0.0], vec![0.0, 0.0], vec![0.0, 1.0]]);
+}
+
+#[test]
+fn obj_smoothing_groups_are_named_where_the_file_has_no_normals() {
+    let faces = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\ns 1\nf 1 2 3\ns off\nf 2 4 3\ns 2\nf 1 2 4\n";
+    let scene = read_bytes(Path::new("smooth.obj"), faces.as_bytes()).unwrap();
+    assert_eq!(
+        scene.read_notes.not_read,
+        ["OBJ smoothing groups (`s`): 2 statements, in a file without normals (`vn`)"]
+    );
+    let with_normals = format!("vn 0 0 1\n{}", faces.replace("f 1 2 3", "f 1//1 2//1 3//1"));
+    let scene = read_bytes(Path::new("smooth.obj"), with_normals.as_bytes()).unwrap();
+    assert!(scene.read_notes.not_read.is_empty());
 }

@@ -581,7 +581,8 @@ pub struct ReadNotes {
     /// OBJ `p` (point) statements: not triangles, so ignored.
     pub ignored_points: usize,
     /// What else the file holds that was not read, in words: a PLY's elements other
-    /// than vertices, faces and strips, and its faces' list properties.
+    /// than vertices, faces and strips, and its faces' list properties; an OBJ's
+    /// smoothing groups where it has no normals.
     pub not_read: Vec<String>,
 }
 
