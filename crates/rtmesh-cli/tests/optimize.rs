@@ -507,3 +507,38 @@ fn the_files_an_output_refers_to_are_copied_beside_it() {
     assert_eq!(left.len(), 1, "no temporary copy left behind");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn the_report_says_what_the_output_goes_without() {
+    let dir = temp_dir("left-out");
+    let input = dir.join("faces.ply");
+    let ply = "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
+element face 2\nproperty list uchar int vertex_indices\nproperty int label\nelement edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n\
+0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 4\n3 0 2 3 5\n0 2\n";
+    std::fs::write(&input, ply).unwrap();
+    let report = dir.join("faces.html");
+    let out = rtmesh(&[
+        "optimize",
+        input.to_str().unwrap(),
+        "-o",
+        dir.join("faces.glb").to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+        "--size",
+        "32x32",
+        "--runs",
+        "1",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let html = std::fs::read_to_string(&report).unwrap();
+    for text in [
+        "The output goes without what rtmesh does not read:</p>\n<ul>\n<li>PLY element 'edge': 1</li>",
+        "The output goes without what the output's format cannot hold:</p>\n<ul>\n<li>triangle attributes label",
+    ] {
+        assert!(html.contains(text), "the page lacks {text:?}");
+    }
+}

@@ -546,7 +546,12 @@ fn optimize_file(
             .as_ref()
             .map_or(rtmesh::trace::View::Iso, |m| m.view);
         let pictures = Pictures::render(&scene, &optimized, view, settings.picture_size);
-        let header = header(job);
+        let header = Header {
+            output: (report.output.as_ref()).map_or(String::new(), |o| o.display().to_string()),
+            not_held: report.not_held.clone(),
+            not_read: report.not_read.clone(),
+            ..header(job)
+        };
         let html = rtmesh::optimize::html::html(&optimized.report, &header, Some(&pictures));
         create_parent(path)?;
         std::fs::write(path, html).with_context(|| format!("writing {}", path.display()))?;
@@ -744,6 +749,7 @@ fn header(job: &Job) -> Header {
         cpu,
         threads: rayon::current_num_threads(),
         date: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+        ..Header::default()
     }
 }
 

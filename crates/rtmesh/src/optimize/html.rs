@@ -33,6 +33,12 @@ pub struct Header {
     pub threads: usize,
     /// When (RFC 3339, UTC).
     pub date: String,
+    /// The mesh written, or empty (`--dry-run`).
+    pub output: String,
+    /// What the output's format cannot hold and the output goes without, in words.
+    pub not_held: Vec<String>,
+    /// What the input holds that rtmesh does not read, in words.
+    pub not_read: Vec<String>,
 }
 
 /// The report's pictures: the shaded output and the box tests per pixel of the input
@@ -160,6 +166,25 @@ fn workload_rows(out: &mut String, name: &str, before: &RayFigures, after: &RayF
             "<tr><td>{name}: {label}</td>{}</tr>",
             change(b, a, 2, lower)
         );
+    }
+}
+
+/// What the output goes without: what rtmesh did not read, and what its format cannot
+/// hold (nothing else is changed).
+fn left_out(out: &mut String, header: &Header) {
+    let lists = [
+        ("rtmesh does not read", &header.not_read),
+        ("the output's format cannot hold", &header.not_held),
+    ];
+    for (why, items) in lists.into_iter().filter(|(_, items)| !items.is_empty()) {
+        let _ = writeln!(
+            out,
+            "<p class=\"left-out\">The output goes without what {why}:</p>\n<ul>"
+        );
+        for item in items {
+            let _ = writeln!(out, "<li>{}</li>", escape(item));
+        }
+        out.push_str("</ul>\n");
     }
 }
 
@@ -494,6 +519,7 @@ pub fn html(report: &OptimizeReport, header: &Header, pictures_of: Option<&Pictu
         ("CPU", header.cpu.as_str()),
         ("threads", &header.threads.to_string()),
         ("date", header.date.as_str()),
+        ("output", header.output.as_str()),
     ] {
         let _ = writeln!(
             out,
@@ -502,6 +528,7 @@ pub fn html(report: &OptimizeReport, header: &Header, pictures_of: Option<&Pictu
         );
     }
     out.push_str("</table>\n");
+    left_out(&mut out, header);
     summary(&mut out, report);
     production(&mut out, report);
     if let Some(p) = pictures_of {
