@@ -84,6 +84,20 @@ run convert "$src/meshlab.ply" "$out/meshlab/meshlab.gltf"
 run convert "$src/meshlab.ply" "$out/meshlab/meshlab.glb"
 run convert "$src/meshlab.ply" "$out/meshlab/meshlab.obj"
 run convert "$out/meshlab/meshlab.obj" "$out/meshlab/from-obj.glb"
+# Two scenes and a node in none: every node keeps placing its mesh.
+python3 - "$src/scenes.gltf" <<'PY'
+import base64, json, struct, sys
+data = struct.pack('<18f', 0, 0, 0, 1, 0, 0, 0, 1, 0, 5, 0, 0, 6, 0, 0, 5, 1, 0)
+view = lambda i: {'buffer': 0, 'byteOffset': 36 * i, 'byteLength': 36}
+accessor = lambda i, x: {'bufferView': i, 'componentType': 5126, 'count': 3, 'type': 'VEC3', 'min': [x, 0, 0], 'max': [x + 1, 1, 0]}
+json.dump({'asset': {'version': '2.0'}, 'scene': 0, 'scenes': [{'nodes': [0]}, {'nodes': [1]}],
+           'nodes': [{'mesh': 0}, {'mesh': 1}, {'mesh': 1}],
+           'meshes': [{'primitives': [{'attributes': {'POSITION': 0}}]}, {'primitives': [{'attributes': {'POSITION': 1}}]}],
+           'buffers': [{'byteLength': 72, 'uri': 'data:application/octet-stream;base64,' + base64.b64encode(data).decode()}],
+           'bufferViews': [view(0), view(1)], 'accessors': [accessor(0, 0), accessor(1, 5)]}, open(sys.argv[1], 'w'))
+PY
+run convert "$src/scenes.gltf" "$out/scenes.glb"
+run optimize "$src/scenes.gltf" -o "$out/scenes-optimized.gltf" --size 0x0
 rm -rf "$src"
 # `animate --motion gltf`: skinned frames baked into one geometry each.
 run animate "$data/animated/Fox.glb" --motion gltf:Run --frames 3 -o "$out/fox-run-frames"

@@ -713,3 +713,67 @@ fn a_meshlab_ply_keeps_its_textures_in_every_format() {
         "{error}"
     );
 }
+
+#[test]
+fn nodes_of_scenes_not_traced_keep_their_meshes() {
+    let (input, out) = sandbox("scenes");
+    let mut bin = Vec::new();
+    for x in [
+        0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 5.0, 0.0, 0.0, 6.0, 0.0, 0.0, 5.0, 1.0, 0.0,
+    ] {
+        bin.extend(x.to_le_bytes());
+    }
+    std::fs::write(input.join("s.bin"), &bin).unwrap();
+    let accessor = |view: u32, x: f32| {
+        serde_json::json!({"bufferView": view, "componentType": 5126, "count": 3, "type": "VEC3",
+            "min": [x, 0, 0], "max": [x + 1.0, 1, 0]})
+    };
+    // Scene 0 places mesh 0; scene 1 places mesh 1 by node 1; node 2 is in no scene.
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"}, "scene": 0,
+        "scenes": [{"nodes": [0]}, {"nodes": [1]}],
+        "nodes": [{"mesh": 0, "name": "a"}, {"mesh": 1, "name": "b"}, {"mesh": 1, "name": "spare"}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}}]}, {"primitives": [{"attributes": {"POSITION": 1}}]}],
+        "buffers": [{"uri": "s.bin", "byteLength": bin.len()}],
+        "bufferViews": [{"buffer": 0, "byteLength": 36}, {"buffer": 0, "byteOffset": 36, "byteLength": 36}],
+        "accessors": [accessor(0, 0.0), accessor(1, 5.0)],
+    });
+    std::fs::write(input.join("s.gltf"), gltf.to_string()).unwrap();
+    let scene = rtmesh::io::read(&input.join("s.gltf")).unwrap();
+    assert_eq!(scene.instances.len(), 1, "only the default scene is traced");
+    let options = rtmesh::optimize::OptimizeOptions {
+        measure: None,
+        ..Default::default()
+    };
+    let optimized = rtmesh::optimize::optimize_mapped(&scene, &options, &())
+        .unwrap()
+        .scene;
+    for (name, written) in [("convert.gltf", &scene), ("optimize.gltf", &optimized)] {
+        rtmesh::io::write(written, &out.join(name)).unwrap();
+        let text = std::fs::read_to_string(out.join(name)).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let nodes = json["nodes"].as_array().unwrap();
+        // Each node places a mesh whose positions start where its source mesh's did.
+        for (n, x) in [(0, 0.0), (1, 5.0), (2, 5.0)] {
+            let mesh = nodes[n]["mesh"]
+                .as_u64()
+                .unwrap_or_else(|| panic!("{name}: node {n} lost its mesh"));
+            let position = json["meshes"][mesh as usize]["primitives"][0]["attributes"]["POSITION"]
+                .as_u64()
+                .unwrap();
+            assert_eq!(
+                json["accessors"][position as usize]["min"][0].as_f64(),
+                Some(x),
+                "{name}: node {n}"
+            );
+        }
+    }
+    let notes = rtmesh::io::write(&scene, &out.join("flat.obj")).unwrap();
+    assert!(
+        notes.not_held.contains(
+            &"scenes: 2 (the default one is written; the others' geometry is not)".to_owned()
+        ),
+        "{:?}",
+        notes.not_held
+    );
+}

@@ -115,6 +115,12 @@ pub fn print(name: &str, info: &MeshInfo) {
             d.nodes, d.skins, d.animations, d.textures, d.images, d.cameras
         );
     }
+    if d.scenes > 1 {
+        println!(
+            "  scenes             {:>10} (the default one is traced; every one is written back)",
+            d.scenes
+        );
+    }
     for library in &d.material_libraries {
         println!("  material library   {library:>10}");
     }

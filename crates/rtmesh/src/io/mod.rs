@@ -470,6 +470,12 @@ fn document_not_held(scene: &Scene, materials: bool) -> Vec<String> {
             .flat_map(|m| &m.primitives)
             .filter(|p| !gltf::is_triangles(p))
             .count();
+        if root.scenes.len() > 1 {
+            lost.push(format!(
+                "scenes: {} (the default one is written; the others' geometry is not)",
+                root.scenes.len()
+            ));
+        }
         let counted = [
             (root.skins.len(), "skins"),
             (root.animations.len(), "animations"),

@@ -81,6 +81,9 @@ pub struct AttributeSummary {
 /// The parts of the source document rtmesh keeps and writes back.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct DocumentSummary {
+    /// glTF scenes: rtmesh traces the default one (or the first), and writes every one
+    /// back.
+    pub scenes: usize,
     /// glTF nodes.
     pub nodes: usize,
     /// glTF skins.
@@ -103,6 +106,7 @@ impl DocumentSummary {
             Some(crate::io::Document::Gltf(gltf)) => {
                 let root = &gltf.root;
                 Self {
+                    scenes: root.scenes.len(),
                     nodes: root.nodes.len(),
                     skins: root.skins.len(),
                     animations: root.animations.len(),

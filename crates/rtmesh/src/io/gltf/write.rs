@@ -395,6 +395,26 @@ fn quantized_positions(document: &GltfDocument, m: usize) -> Option<VertexAttrib
     })
 }
 
+/// Which nodes the scene rtmesh reads places (the default scene's, or the first's):
+/// those under its roots.
+fn traced_nodes(root: &json::Root) -> Vec<bool> {
+    let mut traced = vec![false; root.nodes.len()];
+    let scene = root.scene.map_or(0, |s| s.value());
+    let Some(scene) = root.scenes.get(scene).or(root.scenes.first()) else {
+        return traced;
+    };
+    let mut stack: Vec<usize> = scene.nodes.iter().map(|n| n.value()).collect();
+    while let Some(n) = stack.pop() {
+        match traced.get_mut(n) {
+            Some(seen) if !*seen => *seen = true,
+            _ => continue,
+        }
+        let children = root.nodes[n].children.iter().flatten();
+        stack.extend(children.map(|c| c.value()));
+    }
+    traced
+}
+
 /// Whether `primitive` holds triangles (a list, a strip or a fan), which rtmesh reads;
 /// other primitives (lines, points) are kept from the document as they are.
 pub(crate) fn is_triangles(primitive: &json::mesh::Primitive) -> bool {
@@ -813,6 +833,9 @@ fn write_with(
     // glTF has no empty mesh (a primitive needs vertices): a geometry without
     // triangles is left out, and nodes placing it keep no mesh.
     let mut gltf_mesh = vec![None; scene.meshes.len()];
+    // The output mesh each source mesh became first: for the nodes of scenes rtmesh
+    // does not trace, which keep placing theirs.
+    let mut output_of_source: Vec<Option<u32>> = vec![None; source_meshes];
     for (index, mesh) in scene.meshes.iter().enumerate() {
         let (mesh, inactive) = without_non_finite(mesh);
         notes.inactive_collapsed += inactive;
@@ -951,9 +974,18 @@ fn write_with(
         }
         gltf.primitives = primitives;
         gltf_mesh[index] = Some(meshes.len() as u32);
+        if let Some(m) = source_mesh.filter(|&m| m < source_meshes) {
+            output_of_source[m].get_or_insert(meshes.len() as u32);
+        }
         meshes.push(gltf);
     }
-    place(scene, &mut root, &gltf_mesh, source.is_some());
+    place(
+        scene,
+        &mut root,
+        &gltf_mesh,
+        &output_of_source,
+        source.is_some(),
+    );
     root.meshes = meshes;
     root.accessors = out.accessors;
     root.buffer_views = out.views;
@@ -1063,11 +1095,26 @@ fn indices(out: &mut Output, list: &[u32], vertices: usize) -> Index<json::Acces
 /// output mesh of the instance it placed (a node whose geometry became several gets a
 /// child node per extra one, with its skin); instances rtmesh made (merged geometries,
 /// transforms baked in) become new root nodes. Without one: one root node per instance.
-fn place(scene: &Scene, root: &mut json::Root, gltf_mesh: &[Option<u32>], from_source: bool) {
+/// A node outside the scene rtmesh traces (another scene's, or in none) places the
+/// output mesh its source mesh became first (`output_of_source`), as it did.
+fn place(
+    scene: &Scene,
+    root: &mut json::Root,
+    gltf_mesh: &[Option<u32>],
+    output_of_source: &[Option<u32>],
+    from_source: bool,
+) {
     let source_nodes = if from_source { root.nodes.len() } else { 0 };
     let had_mesh: Vec<bool> = root.nodes.iter().map(|n| n.mesh.is_some()).collect();
-    for node in &mut root.nodes {
-        node.mesh = None;
+    let traced = traced_nodes(root);
+    for (n, node) in root.nodes.iter_mut().enumerate() {
+        let source_mesh = node.mesh.map(|m| m.value());
+        node.mesh = match traced.get(n) {
+            Some(false) if n < source_nodes => source_mesh
+                .and_then(|m| output_of_source.get(m).copied().flatten())
+                .map(Index::new),
+            _ => None,
+        };
     }
     let mut has_mesh = vec![false; source_nodes];
     let mut new_roots = Vec::new();
