@@ -211,16 +211,8 @@ pub(super) fn read<R: BufRead>(
     }
     scene.read_notes.ignored_lines = ignored_lines;
     scene.read_notes.ignored_points = ignored_points;
-    // Smoothing groups say how a tool builds normals for a file that has none; where
-    // the file has `vn`, those hold what they meant.
-    let smoothing = arguments(&text, b"s")
-        .filter(|g| g != "off" && g != "0")
-        .count();
-    if smoothing > 0 && statements(&text, b"vn").next().is_none() {
-        scene.read_notes.not_read.push(format!(
-            "OBJ smoothing groups (`s`): {smoothing} statements, in a file without normals (`vn`)"
-        ));
-    }
+    let names: Vec<&str> = scene.meshes.iter().map(|m| m.name.as_str()).collect();
+    scene.read_notes.not_read.extend(not_kept(&text, &names));
     if needs_default || scene.materials.is_empty() {
         scene.materials.push(Material::default());
     }
@@ -492,6 +484,60 @@ fn arguments<'a>(text: &'a [u8], keyword: &'a [u8]) -> impl Iterator<Item = Stri
     statements(text, keyword).map(move |line| {
         String::from_utf8_lossy(line.trim_ascii()[keyword.len()..].trim_ascii()).into_owned()
     })
+}
+
+/// What tobj reads of `text` without keeping, in words, from one pass over its lines:
+/// smoothing groups (`s`) in a file without normals, which are how a tool would build
+/// them; the names of objects and groups that name no faces of their own (a geometry
+/// takes the name of the last `o` or `g` before its faces, so an object holding named
+/// groups loses its own: `geometry_names` are those kept); and `vt`'s third number (a
+/// 3D texture's w) where it is not 0.
+fn not_kept(text: &[u8], geometry_names: &[&str]) -> Vec<String> {
+    let (mut smoothing, mut normals, mut with_w) = (0usize, false, 0usize);
+    let mut unnamed: Vec<String> = Vec::new();
+    for line in text.split(|&b| b == b'\n') {
+        let mut words = line
+            .split(u8::is_ascii_whitespace)
+            .filter(|w| !w.is_empty());
+        match words.next() {
+            Some(b"vt") => {
+                let w = words.nth(2);
+                with_w += w.is_some_and(|w| w.iter().any(|b| !b"0.+-".contains(b))) as usize;
+            }
+            Some(b"vn") => normals = true,
+            Some(b"s") => {
+                smoothing += words.next().is_some_and(|g| g != b"off" && g != b"0") as usize
+            }
+            Some(b"o" | b"g") => {
+                let name = String::from_utf8_lossy(line.trim_ascii()[1..].trim_ascii());
+                if !name.is_empty()
+                    && !geometry_names.contains(&&*name)
+                    && !unnamed.iter().any(|u| *u == name)
+                {
+                    unnamed.push(name.into_owned());
+                }
+            }
+            _ => {}
+        }
+    }
+    let mut notes = Vec::new();
+    if smoothing > 0 && !normals {
+        notes.push(format!(
+            "OBJ smoothing groups (`s`): {smoothing} statements, in a file without normals (`vn`)"
+        ));
+    }
+    if !unnamed.is_empty() {
+        notes.push(format!(
+            "OBJ object and group names that name no faces of their own: {} (each geometry takes the name of the last `o` or `g` before its faces)",
+            unnamed.join(", ")
+        ));
+    }
+    if with_w > 0 {
+        notes.push(format!(
+            "OBJ texture coordinates' third number (`vt u v w`, w not 0): {with_w}"
+        ));
+    }
+    notes
 }
 
 /// `text` with its `l` (polyline) and `p` (point) statements blanked, their line breaks

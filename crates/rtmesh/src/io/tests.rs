@@ -599,3 +599,23 @@ fn obj_smoothing_groups_are_named_where_the_file_has_no_normals() {
     let scene = read_bytes(Path::new("smooth.obj"), with_normals.as_bytes()).unwrap();
     assert!(scene.read_notes.not_read.is_empty());
 }
+
+#[test]
+fn obj_names_and_third_coordinates_it_cannot_keep_are_named() {
+    let obj = "o car\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0 0\nvt 1 0 0.5\nvt 0 1\ng wheel\nf 1/1 2/2 3/3\ng door\nf 1/1 3/3 2/2\n";
+    let scene = read_bytes(Path::new("car.obj"), obj.as_bytes()).unwrap();
+    assert_eq!(
+        scene.read_notes.not_read,
+        [
+            "OBJ object and group names that name no faces of their own: car (each geometry takes the name of the last `o` or `g` before its faces)",
+            "OBJ texture coordinates' third number (`vt u v w`, w not 0): 1"
+        ]
+    );
+    let plain = "o car\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0 0\nf 1/1 2/1 3/1\n";
+    let scene = read_bytes(Path::new("car.obj"), plain.as_bytes()).unwrap();
+    assert!(
+        scene.read_notes.not_read.is_empty(),
+        "{:?}",
+        scene.read_notes.not_read
+    );
+}
