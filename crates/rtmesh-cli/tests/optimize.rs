@@ -517,18 +517,9 @@ element face 2\nproperty list uchar int vertex_indices\nproperty int label\nelem
 0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2 4\n3 0 2 3 5\n0 2\n";
     std::fs::write(&input, ply).unwrap();
     let report = dir.join("faces.html");
-    let out = rtmesh(&[
-        "optimize",
-        input.to_str().unwrap(),
-        "-o",
-        dir.join("faces.glb").to_str().unwrap(),
-        "--report",
-        report.to_str().unwrap(),
-        "--size",
-        "32x32",
-        "--runs",
-        "1",
-    ]);
+    let report_arg = report.to_str().unwrap();
+    let extra = ["--report", report_arg, "--size", "32x32", "--runs", "1"];
+    let out = optimize(&input, &dir.join("faces.glb"), &extra);
     assert!(
         out.status.success(),
         "{}",

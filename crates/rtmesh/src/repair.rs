@@ -338,27 +338,19 @@ fn remove_triangles(mesh: &mut TriMesh, input_triangle: &mut Vec<u32>, ids: &[u3
     if ids.is_empty() {
         return;
     }
-    let keep: Vec<bool> = (0..mesh.triangle_count() as u32)
-        .map(|t| ids.binary_search(&t).is_err())
+    let kept: Vec<u32> = (0..mesh.triangle_count() as u32)
+        .filter(|t| ids.binary_search(t).is_err())
         .collect();
-    fn kept<T: Copy>(values: &[T], keep: &[bool]) -> Vec<T> {
-        values
-            .iter()
-            .zip(keep)
-            .filter(|(_, &k)| k)
-            .map(|(&v, _)| v)
-            .collect()
-    }
-    mesh.group_ids.resize(mesh.triangles.len(), 0);
-    mesh.triangles = kept(&mesh.triangles, &keep);
-    mesh.material_ids = kept(&mesh.material_ids, &keep);
-    mesh.alpha_tested = kept(&mesh.alpha_tested, &keep);
-    mesh.group_ids = kept(&mesh.group_ids, &keep);
-    let kept_ids: Vec<u32> = (0..keep.len() as u32)
-        .filter(|&t| keep[t as usize])
-        .collect();
-    mesh.triangle_attributes = crate::mesh::gather_all(&mesh.triangle_attributes, &kept_ids);
-    *input_triangle = kept(input_triangle, &keep);
+    let mut out = TriMesh {
+        name: std::mem::take(&mut mesh.name),
+        positions: std::mem::take(&mut mesh.positions),
+        attributes: std::mem::take(&mut mesh.attributes),
+        triangles: kept.iter().map(|&t| mesh.triangles[t as usize]).collect(),
+        ..TriMesh::default()
+    };
+    out.take_triangle_data(mesh, &kept);
+    *mesh = out;
+    *input_triangle = kept.iter().map(|&t| input_triangle[t as usize]).collect();
 }
 
 /// Least share of the probe rays' tests the splits must save to be kept.

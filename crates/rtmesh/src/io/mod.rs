@@ -340,6 +340,7 @@ fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::Mtl
 /// points.
 fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     let mut lost = Vec::new();
+    let ply_textures = ply::texture_files(&scene.materials).is_some();
     if format != Format::Ply {
         let mut names = scene.triangle_attribute_names();
         // STL keeps its own attribute word.
@@ -347,7 +348,7 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
             names.retain(|&name| name != stl::ATTRIBUTE_WORD);
         }
         // MeshLab's texture numbers are the triangles' materials, which every format holds.
-        if ply::texture_files(&scene.materials).is_some() {
+        if ply_textures {
             names.retain(|&name| name != ply::TEXNUMBER);
         }
         if !names.is_empty() {
@@ -398,7 +399,7 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
         ));
     }
     // PLY holds a texture file per material (MeshLab's comments), and no more.
-    let ply_textures = format == Format::Ply && ply::texture_files(&scene.materials).is_some();
+    let ply_textures = format == Format::Ply && ply_textures;
     if ply_textures
         && scene
             .materials

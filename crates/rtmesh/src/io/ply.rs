@@ -67,6 +67,17 @@ impl<const N: usize> Extras<N> {
         }
         self.count += 1;
     }
+
+    /// Keep `property` when it is a scalar; lists are not kept.
+    fn set(&mut self, property: Property) -> PropertyAccessResult {
+        match scalar_value(&property) {
+            Some(value) => {
+                self.push(value);
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::Ignored,
+        }
+    }
 }
 
 /// One vertex: its position and its other scalar properties.
@@ -88,19 +99,6 @@ fn scalar_value(property: &Property) -> Option<f64> {
         Property::Double(v) => v,
         _ => return None,
     })
-}
-
-impl<const N: usize> Extras<N> {
-    /// Keep `property` when it is a scalar; lists are not kept.
-    fn set(&mut self, property: Property) -> PropertyAccessResult {
-        match scalar_value(&property) {
-            Some(value) => {
-                self.push(value);
-                PropertyAccessResult::Set
-            }
-            None => PropertyAccessResult::Ignored,
-        }
-    }
 }
 
 impl PropertyAccess for Vertex {
@@ -708,9 +706,8 @@ fn texture_materials(comments: &[String]) -> Vec<Material> {
 /// where it names none; 0 without a `texnumber` property.
 fn texture_numbers(mesh: &TriMesh, textures: usize) -> Vec<u32> {
     let n = mesh.triangles.len();
-    let numbers = (mesh.triangle_attributes.iter())
-        .find(|a| a.name == TEXNUMBER && a.components == 1)
-        .filter(|_| textures > 0);
+    let numbers =
+        (mesh.triangle_attribute(TEXNUMBER)).filter(|a| a.components == 1 && textures > 0);
     let Some(numbers) = numbers else {
         return vec![0; n];
     };
@@ -866,7 +863,7 @@ fn write_with(
         None => mesh.triangle_attributes.iter().map(as_ply_holds).collect(),
     };
     // Several textures: each face names its own by `texnumber`, unless it holds one.
-    let numbered = triangle_attributes.iter().any(|a| a.name == TEXNUMBER);
+    let numbered = mesh.triangle_attribute(TEXNUMBER).is_some();
     if textures.is_some_and(|t| t.len() > 1) && !numbered && strips.is_none() {
         let numbers: Vec<i32> = mesh.material_ids.iter().map(|&m| m as i32).collect();
         triangle_attributes.push(std::borrow::Cow::Owned(VertexAttribute {

@@ -214,8 +214,9 @@ pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
     header[..title.len()].copy_from_slice(title.as_bytes());
     out.write_all(&header)?;
     out.write_all(&count.to_le_bytes())?;
-    let words =
-        (mesh.triangle_attributes.iter()).find(|a| a.name == ATTRIBUTE_WORD && a.components == 1);
+    let words = mesh
+        .triangle_attribute(ATTRIBUTE_WORD)
+        .filter(|a| a.components == 1);
     for t in 0..mesh.triangle_count() {
         let [a, b, c] = mesh.corners(t);
         let normal = (b - a).cross(c - a).normalize_or_zero();

@@ -193,6 +193,11 @@ impl TriMesh {
         self.attributes.iter().find(|a| a.name == name)
     }
 
+    /// The triangle attribute called `name`, if the mesh has it.
+    pub fn triangle_attribute(&self, name: &str) -> Option<&VertexAttribute> {
+        self.triangle_attributes.iter().find(|a| a.name == name)
+    }
+
     /// Group of triangle `t` (0 where none was recorded).
     #[inline]
     pub fn group_of(&self, t: usize) -> u32 {
