@@ -99,8 +99,10 @@ PY
 run convert "$src/scenes.gltf" "$out/scenes.glb"
 run optimize "$src/scenes.gltf" -o "$out/scenes-optimized.gltf" --size 0x0
 rm -rf "$src"
-# `animate --motion gltf`: skinned frames baked into one geometry each.
+# `animate --motion gltf`: skinned frames baked into one geometry each, with the
+# source's materials and textures (the .gltf frames store CesiumMan's image in .bin).
 run animate "$data/animated/Fox.glb" --motion gltf:Run --frames 3 -o "$out/fox-run-frames"
+run animate "$data/animated/CesiumMan.glb" --motion gltf --frames 2 -o "$out/cesium-frames" --format gltf
 run animate "$data/animated/BrainStem.glb" --motion gltf --frames 2 -o "$out/brainstem-frames" --format gltf
 # `strip`: TRIANGLE_STRIP primitives, joined by degenerate triangles.
 run strip "$data/2CylinderEngine.glb" -o "$out/strips-engine.glb"

@@ -126,7 +126,19 @@ pub fn write_mesh(
 ) -> Result<(SideFiles, WriteNotes)> {
     // First, so that a side file in the way stops the write before anything is written.
     let copies = copy_side_files(input, scene, path)?;
-    let notes = rtmesh::io::write_with_images(scene, path, &copies.images)?;
+    let notes = write_noting(input, scene, path, &copies.images)?;
+    Ok((copies, notes))
+}
+
+/// Write `scene`, read from `input`, to `path` with the images a GLB stores, and say on
+/// standard error what the writer repaired or the format could not hold.
+pub fn write_noting(
+    input: &str,
+    scene: &rtmesh::Scene,
+    path: &Path,
+    images: &[(String, Vec<u8>)],
+) -> Result<WriteNotes> {
+    let notes = rtmesh::io::write_with_images(scene, path, images)?;
     if notes.inactive_collapsed > 0 {
         eprintln!(
             "note: {}: glTF cannot hold NaN, so {} inactive triangles were written as degenerate triangles collapsed onto a corner (same place in the order, no area)",
@@ -171,7 +183,7 @@ pub fn write_mesh(
             }
         );
     }
-    Ok((copies, notes))
+    Ok(notes)
 }
 
 /// Copy the files that `output`, written from `scene` read from `input`, refers to and

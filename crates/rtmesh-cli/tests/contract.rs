@@ -908,6 +908,112 @@ fn gltf_animation_traces_and_bakes() {
     );
 }
 
+/// The glTF document a scene was read with.
+fn gltf_document(scene: &rtmesh::Scene) -> &rtmesh::io::GltfDocument {
+    match scene.document.as_deref() {
+        Some(rtmesh::io::Document::Gltf(document)) => document,
+        _ => panic!("read without its glTF document"),
+    }
+}
+
+/// The bytes of image `i` as its document stores them (a GLB's buffer view, or the
+/// file its URI names beside `path`).
+fn image_bytes(document: &rtmesh::io::GltfDocument, i: usize, path: &std::path::Path) -> Vec<u8> {
+    let image = &document.root().images[i];
+    if let Some(uri) = &image.uri {
+        return std::fs::read(path.with_file_name(uri)).unwrap();
+    }
+    let view = &document.root().buffer_views[image.buffer_view.unwrap().value()];
+    let start = view.byte_offset.map_or(0, |o| o.0 as usize);
+    document.buffers()[view.buffer.value()][start..start + view.byte_length.0 as usize].to_vec()
+}
+
+/// `animate --motion gltf` bakes each frame into one geometry that keeps the source's
+/// look: every triangle's material, whole (59 on BrainStem), the textures with their
+/// image bytes and samplers (Fox, CesiumMan, in GLB and in .gltf with the image in its
+/// `.bin`), and the texture coordinates exact corner by corner.
+#[test]
+fn baked_frames_keep_their_materials_and_textures() {
+    let Some(data) = rtmesh::data::mesh_data_dir() else {
+        return;
+    };
+    for (model, format) in [("BrainStem", "glb"), ("Fox", "glb"), ("CesiumMan", "gltf")] {
+        let source_path = data.join(format!("animated/{model}.glb"));
+        let dir = scratch("animate-looks");
+        let out = rtmesh(&[
+            "animate",
+            source_path.to_str().unwrap(),
+            "--motion",
+            "gltf",
+            "--frames",
+            "2",
+            "--format",
+            format,
+            "-o",
+            dir.path().to_str().unwrap(),
+        ]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let source = rtmesh::io::read(&source_path).unwrap();
+        let rest = source.flatten().unwrap();
+        let source_document = gltf_document(&source);
+        let frame_path = dir.path().join(format!("frame-0001.{format}"));
+        let frame = rtmesh::io::read(&frame_path).unwrap();
+        let document = gltf_document(&frame);
+        let material = |d: &rtmesh::io::GltfDocument, m: u32| {
+            serde_json::to_value(&d.root().materials[m as usize]).unwrap()
+        };
+        assert_eq!(frame.meshes.len(), 1, "{model}: one baked geometry");
+        let baked = &frame.meshes[0];
+        assert_eq!(baked.triangle_count(), rest.triangle_count(), "{model}");
+        for t in 0..rest.triangle_count() {
+            assert_eq!(
+                material(document, baked.material_ids[t]),
+                material(source_document, rest.material_ids[t]),
+                "{model}: triangle {t}'s material"
+            );
+        }
+        assert_eq!(
+            serde_json::to_value(&document.root().textures).unwrap(),
+            serde_json::to_value(&source_document.root().textures).unwrap(),
+            "{model}: textures"
+        );
+        assert_eq!(
+            serde_json::to_value(&document.root().samplers).unwrap(),
+            serde_json::to_value(&source_document.root().samplers).unwrap(),
+            "{model}: samplers"
+        );
+        assert_eq!(
+            document.root().images.len(),
+            source_document.root().images.len()
+        );
+        for i in 0..document.root().images.len() {
+            assert_eq!(
+                image_bytes(document, i, &frame_path),
+                image_bytes(source_document, i, &source_path),
+                "{model}: image {i}"
+            );
+        }
+        if let Some(uv) = rest.attribute("TEXCOORD_0") {
+            let uv_of = |m: &rtmesh::TriMesh, a: &rtmesh::mesh::VertexAttribute, t: usize| {
+                m.triangles[t].map(|v| a.vertex(v as usize))
+            };
+            let baked_uv = baked.attribute("TEXCOORD_0").expect("TEXCOORD_0 kept");
+            for t in 0..rest.triangle_count() {
+                assert_eq!(
+                    uv_of(baked, baked_uv, t),
+                    uv_of(&rest, uv, t),
+                    "{model} {t}"
+                );
+            }
+        }
+        assert!(document.root().skins.is_empty() && document.root().animations.is_empty());
+    }
+}
+
 #[test]
 fn bench_clusters_matches_counts_and_keeps_its_keys() {
     let rows = assert_keys(

@@ -1,12 +1,14 @@
 //! `rtmesh animate`: write the frames of a procedural motion as mesh files.
 
 use crate::args::load;
-use crate::output::{emit, steps_bar};
+use crate::output::{emit, steps_bar, write_noting};
 use anyhow::{bail, Context, Result};
 use rtmesh::animate::{Animation, Motion};
+use rtmesh::io::Document;
 use rtmesh::progress::Progress;
 use serde::Serialize;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Write the frames that `rtmesh dynamic` traces, frame f of N at phase f / (N − 1),
 /// each as DIR/frame-FFFF.EXT.
@@ -15,9 +17,10 @@ use std::path::PathBuf;
 /// geometries, nodes, materials, every vertex attribute) is written as it was, and
 /// normals are not re-derived. --motion gltf plays the file's animation (skins, node
 /// channels, morph targets) and writes each frame baked: one world-space geometry with
-/// its normals skinned, its materials by name and every other vertex attribute, but
-/// without the node tree, skin, morph targets, animations or textures, which a baked
-/// frame has no use for (the source file keeps them).
+/// its normals and tangents skinned and morphed, its materials with their textures
+/// (a GLB frame stores the images), and every other vertex
+/// attribute, but without the node tree, skin, morph targets or animations, which a
+/// baked frame has no use for (the source file keeps them).
 ///
 /// Examples:
 ///   rtmesh animate dragon.ply --motion twist --frames 8 -o frames/ --format ply
@@ -73,6 +76,10 @@ pub fn run(args: Args) -> Result<()> {
         Motion::Procedural(_) => scene,
         Motion::Gltf(_) => rtmesh::Scene {
             materials: scene.materials.clone(),
+            document: scene.document.as_deref().and_then(|d| match d {
+                Document::Gltf(gltf) => Some(Arc::new(Document::Gltf(Box::new(gltf.looks())))),
+                Document::Obj { .. } => None,
+            }),
             ..rtmesh::Scene::from_mesh(mesh)
         },
     };
@@ -90,10 +97,13 @@ pub fn run(args: Args) -> Result<()> {
         let path = args.output.join(format!("frame-{f:04}.{format}"));
         if f == 0 {
             // Every frame refers to the same material libraries and textures (or, as
-            // GLBs from another format, stores the same images).
+            // GLBs from another format, stores the same images), and holds what the
+            // first holds: its notes stand for all.
             images = crate::output::copy_side_files(&args.mesh, &frame, &path)?.images;
+            write_noting(&args.mesh, &frame, &path, &images)?;
+        } else {
+            rtmesh::io::write_with_images(&frame, &path, &images)?;
         }
-        rtmesh::io::write_with_images(&frame, &path, &images)?;
         files.push(path);
         bar.advance(1);
     }

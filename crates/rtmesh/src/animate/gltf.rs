@@ -9,12 +9,14 @@
 //!   until a channel targets it; it is then decomposed into T·R·S.
 //! - **World transforms**, parent before child.
 //! - **Morph targets.** `p = p₀ + Σₖ wₖ·δₖ`, the weights from a `weights` channel, else
-//!   the node's, else the mesh's, else zero.
+//!   the node's, else the mesh's, else zero; normals and tangents take their targets'
+//!   deltas the same way.
 //! - **Linear-blend skinning.** A skinned vertex is `Σᵢ wᵢ · W(jointᵢ) · IBMᵢ · p`: the
 //!   spec's joint matrix `W(mesh node)⁻¹ · W(joint) · IBM` followed by the mesh node's
 //!   own world transform, which cancel. Weights are used as stored (the spec asks that
 //!   they sum to one; the writer renormalizes them, the reader does not). Normals go
-//!   through the inverse transpose of the blended matrix and are renormalized.
+//!   through the inverse transpose of the blended matrix, tangents (their xyz; w, the
+//!   bitangent's sign, is kept) through the matrix itself, and both are renormalized.
 //!
 //! The positions come out in world space in [`Scene::flatten`]'s order, so that one
 //! mesh per frame can be built and traced. Every accessor is checked against its buffer
@@ -81,7 +83,9 @@ struct Placement {
     rest_world: Mat4,
     skin: Option<usize>,
     rest: Vec<Vec3>,
-    normals: Option<Vec<Vec3>>,
+    normals: Option<Directions>,
+    /// TANGENT's xyz.
+    tangents: Option<Directions>,
     /// Per vertex, 4 per joint set: the joint (an index into the skin's joints) and its
     /// weight.
     joints: Vec<u32>,
@@ -91,6 +95,35 @@ struct Placement {
     deltas: Vec<Vec<Vec3>>,
     /// The weights the node or mesh gives its targets when no channel does.
     default_weights: Vec<f32>,
+}
+
+/// A stream of unit directions of an instance at rest (NORMAL, or TANGENT's xyz), with
+/// the deltas of each morph target (`None` for a target that moves none).
+struct Directions {
+    rest: Vec<Vec3>,
+    deltas: Vec<Option<Vec<Vec3>>>,
+}
+
+impl Directions {
+    /// Vertex `v`'s direction under morph weights `weights`, before skinning.
+    fn morphed(&self, v: usize, weights: &[f32]) -> Vec3 {
+        let mut d = self.rest[v];
+        for (delta, &w) in self.deltas.iter().zip(weights) {
+            if let Some(delta) = delta {
+                d += delta[v] * w;
+            }
+        }
+        d
+    }
+}
+
+/// The directions of a frame, in [`Scene::flatten`]'s order: for each stream, one per
+/// vertex where any instance has it (zero where an instance has not, as flattening
+/// fills it), else none.
+#[derive(Default)]
+pub(super) struct FrameDirections {
+    pub(super) normals: Vec<Vec3>,
+    pub(super) tangents: Vec<Vec3>,
 }
 
 /// A glTF animation ready to be evaluated at any time.
@@ -448,12 +481,16 @@ impl GltfMotion {
         (world, weights)
     }
 
-    /// The world-space positions of every instance's vertices at time `t`, and their
-    /// normals where the mesh has float normals, in [`Scene::flatten`]'s order.
-    pub(super) fn evaluate(&self, t: f32, with_normals: bool) -> (Vec<Vec3>, Vec<Vec3>) {
+    /// The world-space positions of every instance's vertices at time `t`, in
+    /// [`Scene::flatten`]'s order, and with `with_directions` their normals and
+    /// tangents.
+    pub(super) fn evaluate(&self, t: f32, with_directions: bool) -> (Vec<Vec3>, FrameDirections) {
         let (world, channel_weights) = self.pose(t);
         let mut positions = Vec::new();
-        let mut normals = Vec::new();
+        let mut directions = FrameDirections::default();
+        let any = |pick: fn(&Placement) -> bool| self.placements.iter().any(pick);
+        let with_normals = with_directions && any(|p| p.normals.is_some());
+        let with_tangents = with_directions && any(|p| p.tangents.is_some());
         for placement in &self.placements {
             let weights = placement
                 .node
@@ -491,16 +528,32 @@ impl GltfMotion {
                 matrix_of(v).transform_point3(p)
             }));
             debug_assert_eq!(positions.len() - start, placement.rest.len());
+            let vertices = placement.rest.len();
+            // Zeros where this instance has no such stream, as flattening fills it.
+            let turned = |stream: &Option<Directions>, out: &mut Vec<Vec3>, normal: bool| {
+                let Some(stream) = stream else {
+                    out.resize(out.len() + vertices, Vec3::ZERO);
+                    return;
+                };
+                out.par_extend((0..vertices).into_par_iter().map(|v| {
+                    let d = stream.morphed(v, weights);
+                    let linear = Mat3::from_mat4(matrix_of(v));
+                    let linear = if normal {
+                        linear.inverse().transpose()
+                    } else {
+                        linear
+                    };
+                    (linear * d).normalize_or(d)
+                }));
+            };
             if with_normals {
-                if let Some(rest) = &placement.normals {
-                    normals.par_extend(rest.par_iter().enumerate().map(|(v, &n)| {
-                        let linear = Mat3::from_mat4(matrix_of(v));
-                        (linear.inverse().transpose() * n).normalize_or(n)
-                    }));
-                }
+                turned(&placement.normals, &mut directions.normals, true);
+            }
+            if with_tangents {
+                turned(&placement.tangents, &mut directions.tangents, false);
             }
         }
-        (positions, normals)
+        (positions, directions)
     }
 }
 
@@ -561,28 +614,34 @@ fn placement(
     default_weights: Vec<f32>,
 ) -> Result<Placement, AnimationError> {
     let vertices = mesh.positions.len();
-    let normals = mesh
-        .attribute("NORMAL")
-        .filter(|a| a.components == 3)
-        .map(|a| {
-            (0..vertices)
-                .map(|v| Vec3::new(a.get(v, 0) as f32, a.get(v, 1) as f32, a.get(v, 2) as f32))
-                .collect()
-        });
+    // The numbers stored values stand for (quantized normals are normalized integers).
+    let xyz = |a: &crate::mesh::VertexAttribute| -> Vec<Vec3> {
+        (0..vertices)
+            .map(|v| {
+                Vec3::new(
+                    a.value(v, 0) as f32,
+                    a.value(v, 1) as f32,
+                    a.value(v, 2) as f32,
+                )
+            })
+            .collect()
+    };
     let mut deltas = Vec::new();
     while let Some(delta) = mesh.attribute(&morph_name(deltas.len(), "POSITION")) {
-        deltas.push(
-            (0..vertices)
-                .map(|v| {
-                    Vec3::new(
-                        delta.get(v, 0) as f32,
-                        delta.get(v, 1) as f32,
-                        delta.get(v, 2) as f32,
-                    )
-                })
-                .collect(),
-        );
+        deltas.push(xyz(delta));
     }
+    let directions = |name: &str, components: usize| {
+        let rest = mesh
+            .attribute(name)
+            .filter(|a| a.components == components)?;
+        Some(Directions {
+            rest: xyz(rest),
+            deltas: (0..deltas.len())
+                .map(|k| mesh.attribute(&morph_name(k, name)).map(xyz))
+                .collect(),
+        })
+    };
+    let (normals, tangents) = (directions("NORMAL", 3), directions("TANGENT", 4));
     let (mut joints, mut weights) = (Vec::new(), Vec::new());
     let mut sets = 0;
     if let Some((s, joint_count)) = skin {
@@ -642,6 +701,7 @@ fn placement(
         skin: skin.map(|(s, _)| s),
         rest: mesh.positions.clone(),
         normals,
+        tangents,
         joints,
         weights,
         influences: 4 * sets,

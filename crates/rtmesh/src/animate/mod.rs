@@ -123,6 +123,14 @@ impl Animation {
                         Semantic::Joints | Semantic::Weights | Semantic::MorphDelta
                     )
                 });
+                // The directions each frame turns, as f32 (a quantized file stores
+                // them as normalized integers, which a turned unit vector would not fit
+                // exactly).
+                for a in &mut mesh.attributes {
+                    if DIRECTIONS.contains(&a.name.as_str()) {
+                        *a = a.to_f32();
+                    }
+                }
                 Ok((mesh, Self(Kind::Gltf(Box::new(motion)))))
             }
         }
@@ -146,20 +154,28 @@ impl Animation {
     }
 
     /// `mesh` (the one [`Animation::of`] gave) moved to `phase`: its positions, and for
-    /// a glTF animation its float `NORMAL`s turned with the skin.
+    /// a glTF animation its `NORMAL`s and `TANGENT`s morphed and turned with the skin
+    /// (a tangent's w, the bitangent's sign, kept).
     pub fn pose(&self, phase: f32, mesh: &mut TriMesh) {
         match &self.0 {
             Kind::Procedural(d) => mesh.positions = d.positions(phase),
             Kind::Gltf(g) => {
-                let (positions, normals) = g.evaluate(Self::time(g, phase), true);
+                let (positions, directions) = g.evaluate(Self::time(g, phase), true);
                 mesh.positions = positions;
-                let normal = mesh.attributes.iter_mut().find(|a| a.name == "NORMAL");
-                if let Some(crate::mesh::AttributeValues::F32(values)) =
-                    normal.map(|a| &mut a.values)
-                {
-                    if values.len() == 3 * normals.len() {
-                        for (slot, n) in values.chunks_exact_mut(3).zip(&normals) {
-                            slot.copy_from_slice(&n.to_array());
+                let streams = [
+                    ("NORMAL", directions.normals),
+                    ("TANGENT", directions.tangents),
+                ];
+                for (name, turned) in streams {
+                    let attribute = mesh.attributes.iter_mut().find(|a| a.name == name);
+                    let Some(attribute) = attribute.filter(|a| a.vertex_count() == turned.len())
+                    else {
+                        continue;
+                    };
+                    let components = attribute.components;
+                    if let crate::mesh::AttributeValues::F32(values) = &mut attribute.values {
+                        for (slot, d) in values.chunks_exact_mut(components).zip(&turned) {
+                            slot[..3].copy_from_slice(&d.to_array());
                         }
                     }
                 }
@@ -172,6 +188,9 @@ impl Animation {
         start + (end - start) * phase.clamp(0.0, 1.0)
     }
 }
+
+/// The vertex attributes a glTF frame turns with its skin and morphs.
+const DIRECTIONS: [&str; 2] = ["NORMAL", "TANGENT"];
 
 #[cfg(test)]
 mod tests;

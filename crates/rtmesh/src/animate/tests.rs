@@ -232,3 +232,81 @@ fn malformed_animation_data_is_refused() {
         assert!(message.contains(expected), "case {k}: {message}");
     }
 }
+
+/// [`hand_built`] with directions: mesh 0 (skinned) has normals along X and tangents
+/// along Y with w = −1, mesh 1 a normal along Z whose morph target adds +1 X. Every
+/// joint turns 90° about Z by t = 1, so the skinned normals end along Y and the
+/// tangents along −X (w kept); the morphed normal is (w, 0, 1) normalized at weight w.
+#[test]
+fn gltf_frames_turn_normals_and_tangents_with_skins_and_morphs() {
+    let scene = hand_built_with(|d| {
+        let floats: [f32; 9 + 12 + 9 + 9] = [
+            1., 0., 0., 1., 0., 0., 1., 0., 0., // mesh 0 normals
+            0., 1., 0., -1., 0., 1., 0., -1., 0., 1., 0., -1., // mesh 0 tangents
+            0., 0., 1., 0., 0., 1., 0., 0., 1., // mesh 1 normals
+            1., 0., 0., 1., 0., 0., 1., 0., 0., // mesh 1 normal deltas
+        ];
+        let bin: Vec<u8> = floats.iter().flat_map(|f| f.to_le_bytes()).collect();
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bin)
+        );
+        d["buffers"]
+            .as_array_mut()
+            .unwrap()
+            .push(json!({"byteLength": bin.len(), "uri": uri}));
+        let mut add = |offset: usize, floats: usize, kind: &str| {
+            let views = d["bufferViews"].as_array_mut().unwrap();
+            views.push(json!({"buffer": 1, "byteOffset": 4 * offset, "byteLength": 4 * floats}));
+            let view = views.len() - 1;
+            let accessors = d["accessors"].as_array_mut().unwrap();
+            accessors
+                .push(json!({"bufferView": view, "componentType": 5126, "count": 3, "type": kind}));
+            accessors.len() - 1
+        };
+        let (n0, t0, n1, dn1) = (
+            add(0, 9, "VEC3"),
+            add(9, 12, "VEC4"),
+            add(21, 9, "VEC3"),
+            add(30, 9, "VEC3"),
+        );
+        let meshes = &mut d["meshes"];
+        meshes[0]["primitives"][0]["attributes"]["NORMAL"] = json!(n0);
+        meshes[0]["primitives"][0]["attributes"]["TANGENT"] = json!(t0);
+        meshes[1]["primitives"][0]["attributes"]["NORMAL"] = json!(n1);
+        meshes[1]["primitives"][0]["targets"][0]["NORMAL"] = json!(dn1);
+    })
+    .unwrap();
+    let (mut mesh, animation) = Animation::of(&scene, &Motion::Gltf(None)).unwrap();
+    let stream = |mesh: &TriMesh, name: &str| {
+        let a = mesh.attribute(name).unwrap();
+        (0..a.vertex_count())
+            .map(|v| a.vertex(v))
+            .collect::<Vec<_>>()
+    };
+    for (phase, weight) in [(0.0f32, 0.0f64), (0.5, 0.5), (1.0, 1.0)] {
+        animation.pose(phase, &mut mesh);
+        let turn = (f64::from(phase) * std::f64::consts::FRAC_PI_2).sin_cos();
+        let morphed = [weight, 0.0, 1.0].map(|c| c / (weight * weight + 1.0).sqrt());
+        let (normals, tangents) = (stream(&mesh, "NORMAL"), stream(&mesh, "TANGENT"));
+        let expected_normals = [[turn.1, turn.0, 0.0]; 3].into_iter().chain([morphed; 3]);
+        for (v, (got, expected)) in normals.iter().zip(expected_normals).enumerate() {
+            let close = got.iter().zip(expected).all(|(g, e)| (g - e).abs() < 1e-6);
+            assert!(
+                close,
+                "phase {phase}, vertex {v}: normal {got:?}, expected {expected:?}"
+            );
+        }
+        // Mesh 1 has no tangents: zeros, as flattening fills them.
+        let expected_tangents = [[-turn.0, turn.1, 0.0, -1.0]; 3]
+            .into_iter()
+            .chain([[0.0; 4]; 3]);
+        for (v, (got, expected)) in tangents.iter().zip(expected_tangents).enumerate() {
+            let close = got.iter().zip(expected).all(|(g, e)| (g - e).abs() < 1e-6);
+            assert!(
+                close,
+                "phase {phase}, vertex {v}: tangent {got:?}, expected {expected:?}"
+            );
+        }
+    }
+}

@@ -20,6 +20,7 @@ use crate::mesh::{
     morph_name, AttributeValues, Instance, Material, Scene, TriMesh, VertexAttribute,
 };
 use glam::{Affine3A, DMat4, Mat4, Vec3};
+use gltf::json;
 use gltf::mesh::Mode;
 use std::io::BufRead;
 use std::path::Path;
@@ -297,6 +298,89 @@ impl GltfDocument {
         &self.buffers
     }
 
+    /// The document's looks alone: its materials, textures, samplers and images (those
+    /// stored in the file copied into one buffer), the extensions they use, and the
+    /// asset's copyright; no meshes, nodes, skins or animations. For a geometry that
+    /// no longer matches the document's meshes (an animated frame baked into one mesh)
+    /// but keeps its material ids, so that the writer gives it the same materials.
+    pub fn looks(&self) -> Self {
+        let source = &self.root;
+        let mut bin = Vec::new();
+        let mut buffer_views = Vec::new();
+        let mut images = source.images.clone();
+        for image in &mut images {
+            let Some(view) = image
+                .buffer_view
+                .and_then(|v| source.buffer_views.get(v.value()))
+            else {
+                image.buffer_view = None;
+                continue;
+            };
+            let start = view.byte_offset.map_or(0, |o| o.0 as usize);
+            let bytes = (self.buffers.get(view.buffer.value()))
+                .and_then(|b| b.get(start..start + view.byte_length.0 as usize))
+                .unwrap_or_default();
+            buffer_views.push(json::buffer::View {
+                buffer: json::Index::new(0),
+                byte_length: json::validation::USize64::from(bytes.len()),
+                byte_offset: Some(json::validation::USize64::from(bin.len())),
+                byte_stride: None,
+                target: None,
+                name: view.name.clone(),
+                extensions: None,
+                extras: None,
+            });
+            image.buffer_view = Some(json::Index::new(buffer_views.len() as u32 - 1));
+            bin.extend_from_slice(bytes);
+            // Views start on 4-byte boundaries.
+            bin.resize(bin.len().next_multiple_of(4), 0);
+        }
+        let mut root = json::Root {
+            asset: json::Asset {
+                copyright: source.asset.copyright.clone(),
+                generator: Some(GENERATOR.into()),
+                ..json::Asset::default()
+            },
+            materials: source.materials.clone(),
+            textures: source.textures.clone(),
+            samplers: source.samplers.clone(),
+            images,
+            buffer_views,
+            ..json::Root::default()
+        };
+        if !bin.is_empty() {
+            root.buffers.push(json::Buffer {
+                byte_length: json::validation::USize64::from(bin.len()),
+                name: None,
+                uri: None,
+                extensions: None,
+                extras: None,
+            });
+        }
+        let mut used = Vec::new();
+        let looks = [
+            serde_json::to_value(&root.materials),
+            serde_json::to_value(&root.textures),
+            serde_json::to_value(&root.samplers),
+            serde_json::to_value(&root.images),
+        ];
+        for value in looks.iter().flatten() {
+            extensions_named(value, &mut used);
+        }
+        root.extensions_used = (source.extensions_used.iter())
+            .filter(|e| used.contains(e))
+            .cloned()
+            .collect();
+        root.extensions_required = (source.extensions_required.iter())
+            .filter(|e| used.contains(e))
+            .cloned()
+            .collect();
+        Self {
+            root,
+            buffers: vec![bin],
+        }
+    }
+
     /// The (mesh, primitive) of every group, in the reader's numbering.
     pub(crate) fn group_sources(&self) -> Vec<(usize, usize)> {
         self.root
@@ -305,6 +389,29 @@ impl GltfDocument {
             .enumerate()
             .flat_map(|(m, mesh)| (0..mesh.primitives.len()).map(move |p| (m, p)))
             .collect()
+    }
+}
+
+/// The `asset.generator` of a document rtmesh makes.
+pub(super) const GENERATOR: &str = concat!("rtmesh ", env!("CARGO_PKG_VERSION"));
+
+/// Every key of an `extensions` object anywhere in `value`, added to `names`.
+fn extensions_named(value: &serde_json::Value, names: &mut Vec<String>) {
+    match value {
+        serde_json::Value::Object(object) => {
+            for (key, inner) in object {
+                if let (true, Some(extensions)) = (key == "extensions", inner.as_object()) {
+                    names.extend(extensions.keys().cloned());
+                }
+                extensions_named(inner, names);
+            }
+        }
+        serde_json::Value::Array(items) => {
+            for item in items {
+                extensions_named(item, names);
+            }
+        }
+        _ => {}
     }
 }
 

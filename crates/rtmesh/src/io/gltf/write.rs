@@ -575,15 +575,16 @@ fn renumbered(primitive: &json::mesh::Primitive, index: &[Option<u32>]) -> json:
     out
 }
 
-/// The default primitive of a scene without a source document: every stream, the
-/// triangle's material.
-fn fresh_primitive(scene: &Scene, material: u32) -> json::mesh::Primitive {
+/// The default primitive of a geometry without a source primitive: every stream, the
+/// triangle's material where `root` has it (a glTF's primitives without one use the
+/// reader's default material, which its document does not hold).
+fn fresh_primitive(root: &json::Root, material: u32) -> json::mesh::Primitive {
     json::mesh::Primitive {
         attributes: BTreeMap::new(),
         extensions: None,
         extras: None,
         indices: None,
-        material: ((material as usize) < scene.materials.len()).then(|| Index::new(material)),
+        material: ((material as usize) < root.materials.len()).then(|| Index::new(material)),
         mode: Checked::Valid(json::mesh::Mode::Triangles),
         targets: None,
     }
@@ -886,7 +887,7 @@ fn write_with(
                     targets: None,
                     ..template.clone()
                 },
-                None => fresh_primitive(scene, key(start).1),
+                None => fresh_primitive(&root, key(start).1),
             };
             primitive.attributes.insert(
                 Checked::Valid(json::mesh::Semantic::Positions),
@@ -1010,7 +1011,7 @@ fn write_with(
         });
     }
     if source.is_none() {
-        root.asset.generator = Some(concat!("rtmesh ", env!("CARGO_PKG_VERSION")).into());
+        root.asset.generator = Some(super::GENERATOR.into());
     }
     let json_bytes = json::serialize::to_vec(&root).map_err(std::io::Error::other)?;
     if binary {
