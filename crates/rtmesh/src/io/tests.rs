@@ -619,3 +619,48 @@ fn obj_names_and_third_coordinates_it_cannot_keep_are_named() {
         scene.read_notes.not_read
     );
 }
+
+/// Two primitives whose vertices are their own (two boxes, one material each) get
+/// streams of their own vertices: each POSITION accessor counts and bounds its box
+/// alone, and reading back gives every corner and texture coordinate exactly. Where
+/// primitives share vertices (one box, two materials: `gltf_keeps_materials_and_alpha_flags`)
+/// they share the streams.
+#[test]
+fn gltf_primitives_with_their_own_vertices_get_their_own_streams() {
+    let mut mesh = scenes::box_mesh(glam::Vec3::ZERO, glam::Vec3::ONE);
+    let far = scenes::box_mesh(glam::Vec3::splat(2.0), glam::Vec3::splat(3.0));
+    mesh.append(&far, &glam::Affine3A::IDENTITY, 0);
+    let n = mesh.positions.len();
+    let uv: Vec<[f32; 2]> = (0..n)
+        .map(|v| [v as f32 / 16.0, 1.0 - v as f32 / 32.0])
+        .collect();
+    mesh.attributes = vec![crate::mesh::VertexAttribute::from_f32("TEXCOORD_0", &uv)];
+    mesh.material_ids = (0..24).map(|t| u32::from(t >= 12)).collect();
+    mesh.alpha_tested = vec![false; 24];
+    let mut scene = Scene::from_mesh(mesh.clone());
+    scene.materials = vec![crate::mesh::Material::default(); 2];
+    let back = round_trip(&scene, "glb");
+    assert_eq!(corner_bits(&back), corner_bits(&scene));
+    let (got, expected) = (&back.meshes[0], &mesh);
+    let uv_of = |m: &TriMesh, t: usize| {
+        let a = m.attribute("TEXCOORD_0").unwrap();
+        m.triangles[t].map(|v| a.vertex(v as usize))
+    };
+    for t in 0..24 {
+        assert_eq!(uv_of(got, t), uv_of(expected, t), "triangle {t}");
+    }
+    let Some(Document::Gltf(document)) = back.document.as_deref() else {
+        panic!("a glTF document");
+    };
+    let root = document.root();
+    let primitives = &root.meshes[0].primitives;
+    assert_eq!(primitives.len(), 2);
+    for (p, low) in [(0, 0.0), (1, 2.0)] {
+        let position = primitives[p].attributes
+            [&::gltf::json::validation::Checked::Valid(::gltf::json::mesh::Semantic::Positions)];
+        let accessor = &root.accessors[position.value()];
+        assert_eq!(accessor.count.0, 8, "primitive {p}: its own 8 corners");
+        let min = accessor.min.as_ref().unwrap();
+        assert_eq!(min, &serde_json::json!([low, low, low]), "primitive {p}");
+    }
+}

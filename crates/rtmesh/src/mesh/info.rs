@@ -167,7 +167,7 @@ impl MeshInfo {
             triangles: flat.triangles.len(),
             instanced_triangles: scene.instanced_triangle_count(),
             welded_vertices: welded.positions.len(),
-            bounds: scene.bounds(),
+            bounds: scene.placed_bounds(),
             components: connected_components(&adjacency).1,
             boundary_edges: adjacency.boundary_edge_count(),
             manifold_edges: adjacency.manifold_edge_count(),

@@ -429,6 +429,12 @@ impl TriMesh {
 
     /// Box of all vertices that triangles use, skipping non-finite positions.
     pub fn bounds(&self) -> Aabb {
+        self.bounds_placed(&Affine3A::IDENTITY)
+    }
+
+    /// [`TriMesh::bounds`] of the mesh placed by `transform`: the box of the moved
+    /// vertices, tighter than the moved box.
+    pub fn bounds_placed(&self, transform: &Affine3A) -> Aabb {
         let mut used = vec![false; self.positions.len()];
         for t in &self.triangles {
             for &v in t {
@@ -441,7 +447,9 @@ impl TriMesh {
             .iter()
             .zip(&used)
             .filter(|(p, &u)| u && p.is_finite())
-            .fold(Aabb::EMPTY, |b, (&p, _)| b.grown_by_point(p))
+            .fold(Aabb::EMPTY, |b, (&p, _)| {
+                b.grown_by_point(transform.transform_point3(p))
+            })
     }
 
     /// Append `other`, with its vertices moved by `transform` (normals and tangents
@@ -715,11 +723,20 @@ impl Scene {
         out
     }
 
-    /// World-space box of all instances.
+    /// World-space box of all instances: the union of their meshes' boxes, moved (a
+    /// bound, which a rotated instance makes loose; the ray workloads aim by it).
     pub fn bounds(&self) -> Aabb {
         let mesh_bounds: Vec<Aabb> = self.meshes.iter().map(TriMesh::bounds).collect();
         self.instances.iter().fold(Aabb::EMPTY, |b, inst| {
             b.union(mesh_bounds[inst.mesh].transformed(&inst.transform))
+        })
+    }
+
+    /// The exact world-space box of all instances' vertices that triangles use, as
+    /// other tools report it (what [`Scene::flatten`]'s mesh bounds).
+    pub fn placed_bounds(&self) -> Aabb {
+        (self.instances.iter()).fold(Aabb::EMPTY, |b, inst| {
+            b.union(self.meshes[inst.mesh].bounds_placed(&inst.transform))
         })
     }
 }
@@ -727,6 +744,25 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A triangle turned 45° about Z: its exact box is that of the turned corners, which
+    /// the flattened mesh has too, and the moved box is looser.
+    #[test]
+    fn placed_bounds_are_the_moved_vertices_box() {
+        let mesh = TriMesh::new(vec![Vec3::ZERO, Vec3::X, Vec3::Y], vec![[0, 1, 2]]);
+        let mut scene = Scene::from_mesh(mesh);
+        let turn = Affine3A::from_rotation_z(std::f32::consts::FRAC_PI_4);
+        scene.instances = vec![Instance::new(0, turn), Instance::new(0, Affine3A::IDENTITY)];
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        let exact = scene.placed_bounds();
+        assert!((exact.min - Vec3::new(-h, 0.0, 0.0)).abs().max_element() < 1e-6);
+        assert!((exact.max - Vec3::new(1.0, 1.0, 0.0)).abs().max_element() < 1e-6);
+        assert_eq!(exact, scene.flatten().unwrap().bounds());
+        assert!(
+            scene.bounds().max.y > 1.4,
+            "the moved box of the turned square"
+        );
+    }
 
     /// 8,192 placements of an 8,192-triangle mesh flatten to exactly the limit; one more
     /// is refused, before anything is allocated.

@@ -850,7 +850,9 @@ fn write_with(
         let position_stored = source
             .zip(source_mesh)
             .and_then(|(d, m)| quantized_positions(d, m));
-        let mut streams = Streams::new(&mesh, quantized, position_stored);
+        let primitive_list = primitive_triangles(&mesh);
+        let own = own_vertices(&mesh, &primitive_list);
+        let mut shared = Streams::new(&mesh, quantized, position_stored.clone());
         let mut primitives = Vec::new();
         // Each primitive's strips, joined (a strip never spans two primitives).
         let strip_lists = strips.and_then(|all| all.get(index)).map(|strips| {
@@ -868,8 +870,11 @@ fn write_with(
                 .map(|(key, lists)| (key, crate::strip::join_standard(&lists)))
                 .collect::<BTreeMap<_, _>>()
         });
-        for triangles in primitive_triangles(&mesh) {
+        for (p, triangles) in primitive_list.iter().enumerate() {
             let start = triangles[0] as usize;
+            let mut own_streams = (own.as_ref())
+                .map(|(meshes, _)| Streams::new(&meshes[p], quantized, position_stored.clone()));
+            let streams = own_streams.as_mut().unwrap_or(&mut shared);
             let key = |t: usize| {
                 (
                     mesh.group_of(t),
@@ -933,7 +938,7 @@ fn write_with(
                     }
                 }
             }
-            let list: Vec<u32> = match strip_lists.as_ref().and_then(|l| l.get(&key(start))) {
+            let mut list: Vec<u32> = match strip_lists.as_ref().and_then(|l| l.get(&key(start))) {
                 Some(list) => {
                     primitive.mode = Checked::Valid(json::mesh::Mode::TriangleStrip);
                     list.clone()
@@ -943,10 +948,16 @@ fn write_with(
                     .flat_map(|&t| mesh.triangles[t as usize])
                     .collect(),
             };
-            primitive.indices = Some(indices(&mut out, &list, mesh.positions.len()));
+            if let Some((_, local)) = &own {
+                for v in &mut list {
+                    *v = local[*v as usize];
+                }
+            }
+            primitive.indices = Some(indices(&mut out, &list, streams.mesh.positions.len()));
             primitives.push(primitive);
+            notes.normals_renormalized += own_streams.map_or(0, |s| s.changed);
         }
-        notes.normals_renormalized += streams.changed;
+        notes.normals_renormalized += shared.changed;
         if let (Some(document), Some(m)) = (source, source_mesh) {
             if !std::mem::replace(&mut other_primitives_written[m], true) {
                 primitives.extend(
@@ -1059,6 +1070,62 @@ fn primitive_triangles(mesh: &TriMesh) -> Vec<Vec<u32>> {
         out[i].push(t as u32);
     }
     out
+}
+
+/// Each primitive's own vertices, where every vertex is used by exactly one primitive
+/// (as a glTF's primitives read, and as rtmesh's transforms keep them): the mesh of
+/// each primitive's vertices, in their order, with its triangles, and every vertex's
+/// index within its primitive. Each primitive then gets streams of its own vertices,
+/// so that an importer that takes a primitive as a mesh (assimp, an engine's skinning
+/// per draw) sees its vertices, bounds and joints alone rather than the geometry's;
+/// it costs no byte, since no vertex is written twice. `None` for one primitive, or
+/// where a vertex is shared or unused: the primitives then share the geometry's
+/// streams (splitting would copy shared vertices and drop unused ones).
+fn own_vertices(mesh: &TriMesh, primitives: &[Vec<u32>]) -> Option<(Vec<TriMesh>, Vec<u32>)> {
+    if primitives.len() < 2 {
+        return None;
+    }
+    const UNUSED: u32 = u32::MAX;
+    let mut owner = vec![UNUSED; mesh.positions.len()];
+    for (p, triangles) in primitives.iter().enumerate() {
+        for &t in triangles {
+            for v in mesh.triangles[t as usize] {
+                match owner[v as usize] {
+                    UNUSED => owner[v as usize] = p as u32,
+                    q if q == p as u32 => {}
+                    _ => return None,
+                }
+            }
+        }
+    }
+    if owner.contains(&UNUSED) {
+        return None;
+    }
+    let mut sources = vec![Vec::new(); primitives.len()];
+    let mut local = vec![0; mesh.positions.len()];
+    for (v, &p) in owner.iter().enumerate() {
+        local[v] = sources[p as usize].len() as u32;
+        sources[p as usize].push(v as u32);
+    }
+    let meshes = (primitives.iter().zip(&sources))
+        .map(|(triangles, sources)| {
+            let mut own = TriMesh {
+                name: mesh.name.clone(),
+                positions: sources
+                    .iter()
+                    .map(|&v| mesh.positions[v as usize])
+                    .collect(),
+                triangles: (triangles.iter())
+                    .map(|&t| mesh.triangles[t as usize].map(|v| local[v as usize]))
+                    .collect(),
+                attributes: mesh.attributes.iter().map(|a| a.gather(sources)).collect(),
+                ..TriMesh::default()
+            };
+            own.take_triangle_data(mesh, triangles);
+            own
+        })
+        .collect();
+    Some((meshes, local))
 }
 
 /// An index accessor for the flat index list `list` (u16 when the vertices allow, else
