@@ -924,8 +924,7 @@ fn image_bytes(document: &rtmesh::io::GltfDocument, i: usize, path: &std::path::
         return std::fs::read(path.with_file_name(uri)).unwrap();
     }
     let view = &document.root().buffer_views[image.buffer_view.unwrap().value()];
-    let start = view.byte_offset.map_or(0, |o| o.0 as usize);
-    document.buffers()[view.buffer.value()][start..start + view.byte_length.0 as usize].to_vec()
+    document.view_bytes(view).to_vec()
 }
 
 /// `animate --motion gltf` bakes each frame into one geometry that keeps the source's

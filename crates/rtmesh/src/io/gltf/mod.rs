@@ -316,10 +316,7 @@ impl GltfDocument {
                 image.buffer_view = None;
                 continue;
             };
-            let start = view.byte_offset.map_or(0, |o| o.0 as usize);
-            let bytes = (self.buffers.get(view.buffer.value()))
-                .and_then(|b| b.get(start..start + view.byte_length.0 as usize))
-                .unwrap_or_default();
+            let bytes = self.view_bytes(view);
             buffer_views.push(json::buffer::View {
                 buffer: json::Index::new(0),
                 byte_length: json::validation::USize64::from(bytes.len()),
@@ -379,6 +376,15 @@ impl GltfDocument {
             root,
             buffers: vec![bin],
         }
+    }
+
+    /// The bytes of `view` within its buffer (none where they lie outside it).
+    pub fn view_bytes(&self, view: &gltf::json::buffer::View) -> &[u8] {
+        let start = view.byte_offset.map_or(0, |o| o.0 as usize);
+        let end = start.saturating_add(view.byte_length.0 as usize);
+        (self.buffers.get(view.buffer.value()))
+            .and_then(|b| b.get(start..end))
+            .unwrap_or_default()
     }
 
     /// The (mesh, primitive) of every group, in the reader's numbering.

@@ -501,12 +501,7 @@ fn keep_unchanged(
         if !used_by_kept[v] && used_at_all[v] {
             continue;
         }
-        let start = view.byte_offset.map_or(0, |o| o.0 as usize);
-        let bytes = source
-            .buffers
-            .get(view.buffer.value())
-            .and_then(|b| b.get(start..start + view.byte_length.0 as usize))
-            .unwrap_or_default();
+        let bytes = source.view_bytes(view);
         let index = out.view(bytes, None, None);
         let copied = out.views.last_mut().expect("just added");
         *copied = json::buffer::View {
