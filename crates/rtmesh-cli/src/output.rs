@@ -126,19 +126,24 @@ pub fn write_mesh(
 ) -> Result<(SideFiles, WriteNotes)> {
     // First, so that a side file in the way stops the write before anything is written.
     let copies = copy_side_files(input, scene, path)?;
-    let notes = write_noting(input, scene, path, &copies.images)?;
+    let options = rtmesh::io::WriteOptions {
+        images: &copies.images,
+        ..Default::default()
+    };
+    let notes = write_noting(input, scene, path, options)?;
     Ok((copies, notes))
 }
 
-/// Write `scene`, read from `input`, to `path` with the images a GLB stores, and say on
-/// standard error what the writer repaired or the format could not hold.
+/// Write `scene`, read from `input`, to `path` with `options` (the images a GLB
+/// stores, the name of an OBJ's material library), and say on standard error what the
+/// writer repaired or the format could not hold.
 pub fn write_noting(
     input: &str,
     scene: &rtmesh::Scene,
     path: &Path,
-    images: &[(String, Vec<u8>)],
+    options: rtmesh::io::WriteOptions,
 ) -> Result<WriteNotes> {
-    let notes = rtmesh::io::write_with_images(scene, path, images)?;
+    let notes = rtmesh::io::write_with(scene, path, options)?;
     if notes.inactive_collapsed > 0 {
         eprintln!(
             "note: {}: glTF cannot hold NaN, so {} inactive triangles were written as degenerate triangles collapsed onto a corner (same place in the order, no area)",

@@ -1013,6 +1013,68 @@ fn baked_frames_keep_their_materials_and_textures() {
     }
 }
 
+/// OBJ frames of a glTF share one material library, named after the input, and one
+/// copy of each image the glTF stores (before, each frame had its own library and its
+/// own copy of every image: 100 frames, 100 copies).
+#[test]
+fn obj_frames_share_one_material_library() {
+    let Some(data) = rtmesh::data::mesh_data_dir() else {
+        return;
+    };
+    let source_path = data.join("animated/Fox.glb");
+    let dir = scratch("animate-obj-library");
+    let out = rtmesh(&[
+        "animate",
+        source_path.to_str().unwrap(),
+        "--motion",
+        "gltf",
+        "--frames",
+        "3",
+        "--format",
+        "obj",
+        "-o",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let mut written: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        [
+            "Fox.mtl",
+            "Fox_image0.png",
+            "frame-0000.obj",
+            "frame-0001.obj",
+            "frame-0002.obj"
+        ]
+    );
+    let source = rtmesh::io::read(&source_path).unwrap();
+    assert_eq!(
+        std::fs::read(dir.path().join("Fox_image0.png")).unwrap(),
+        image_bytes(gltf_document(&source), 0, &source_path)
+    );
+    let library = std::fs::read_to_string(dir.path().join("Fox.mtl")).unwrap();
+    assert!(library.contains(" Fox_image0.png\n"), "{library}");
+    for f in 0..3 {
+        let frame = std::fs::read_to_string(dir.path().join(format!("frame-000{f}.obj"))).unwrap();
+        assert_eq!(
+            frame
+                .lines()
+                .filter(|l| l.starts_with("mtllib"))
+                .collect::<Vec<_>>(),
+            ["mtllib Fox.mtl"],
+            "frame {f}"
+        );
+    }
+}
+
 #[test]
 fn bench_clusters_matches_counts_and_keeps_its_keys() {
     let rows = assert_keys(

@@ -519,7 +519,11 @@ fn a_glb_from_an_obj_stores_its_png_and_jpeg_textures_and_copies_the_rest() {
             copies.embedded,
             [input.join("tex/d.png"), input.join("tex/n.jpg")]
         );
-        rtmesh::io::write_with_images(&scene, &output, &copies.images).unwrap();
+        let options = rtmesh::io::WriteOptions {
+            images: &copies.images,
+            ..Default::default()
+        };
+        rtmesh::io::write_with(&scene, &output, options).unwrap();
         let gltf = gltf::Gltf::open(&output).unwrap();
         let blob = gltf.blob.clone().unwrap();
         let stored: Vec<(Option<String>, Option<Vec<u8>>)> = gltf
@@ -573,7 +577,11 @@ fn a_glb_from_a_gltf_stores_its_image_files() {
     let copies = copies.unwrap();
     assert!(copies.copied.is_empty(), "{copies:?}");
     assert_eq!(copies.embedded, [input.join("tex/n.png")]);
-    rtmesh::io::write_with_images(&scene, &out.join("a.glb"), &copies.images).unwrap();
+    let options = rtmesh::io::WriteOptions {
+        images: &copies.images,
+        ..Default::default()
+    };
+    rtmesh::io::write_with(&scene, &out.join("a.glb"), options).unwrap();
     let gltf = gltf::Gltf::open(out.join("a.glb")).unwrap();
     let blob = gltf.blob.clone().unwrap();
     for image in gltf.images() {

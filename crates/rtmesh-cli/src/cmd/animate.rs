@@ -4,10 +4,10 @@ use crate::args::load;
 use crate::output::{emit, steps_bar, write_noting};
 use anyhow::{bail, Context, Result};
 use rtmesh::animate::{Animation, Motion};
-use rtmesh::io::Document;
+use rtmesh::io::{Document, WriteOptions};
 use rtmesh::progress::Progress;
 use serde::Serialize;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// Write the frames that `rtmesh dynamic` traces, frame f of N at phase f / (N − 1),
@@ -18,8 +18,8 @@ use std::sync::Arc;
 /// normals are not re-derived. --motion gltf plays the file's animation (skins, node
 /// channels, morph targets) and writes each frame baked: one world-space geometry with
 /// its normals and tangents skinned and morphed, its materials with their textures
-/// (a GLB frame stores the images), and every other vertex
-/// attribute, but without the node tree, skin, morph targets or animations, which a
+/// (a GLB frame stores the images; OBJ frames share one MTL library named after the
+/// input, with one copy of each image), and every other vertex attribute, but without the node tree, skin, morph targets or animations, which a
 /// baked frame has no use for (the source file keeps them).
 ///
 /// Examples:
@@ -85,6 +85,11 @@ pub fn run(args: Args) -> Result<()> {
     };
     std::fs::create_dir_all(&args.output)
         .with_context(|| format!("{}: cannot make the folder", args.output.display()))?;
+    // An OBJ frame of a glTF (or of a textured PLY) gets the materials as an MTL
+    // library with the images extracted: one, named after the input, for all frames.
+    let library = Path::new(&args.mesh)
+        .file_stem()
+        .map(|stem| stem.to_string_lossy().into_owned());
     let bar = steps_bar(args.frames);
     let mut files = Vec::with_capacity(args.frames);
     let mut images = Vec::new();
@@ -100,9 +105,15 @@ pub fn run(args: Args) -> Result<()> {
             // GLBs from another format, stores the same images), and holds what the
             // first holds: its notes stand for all.
             images = crate::output::copy_side_files(&args.mesh, &frame, &path)?.images;
-            write_noting(&args.mesh, &frame, &path, &images)?;
+        }
+        let options = WriteOptions {
+            images: &images,
+            library: library.as_deref(),
+        };
+        if f == 0 {
+            write_noting(&args.mesh, &frame, &path, options)?;
         } else {
-            rtmesh::io::write_with_images(&frame, &path, &images)?;
+            rtmesh::io::write_with(&frame, &path, options)?;
         }
         files.push(path);
         bar.advance(1);

@@ -264,16 +264,29 @@ pub struct WriteNotes {
 /// instance). glTF/GLB keep meshes, materials and instance transforms; they cannot hold
 /// NaN, so inactive triangles are collapsed ([`WriteNotes::inactive_collapsed`]).
 pub fn write(scene: &Scene, path: &Path) -> Result<WriteNotes, MeshError> {
-    write_with_images(scene, path, &[])
+    write_with(scene, path, WriteOptions::default())
 }
 
-/// [`write`], with `images` (each an image file as the scene names it, with its bytes:
-/// [`SideFiles::images`]) stored in the binary chunk when `path` is a GLB, so that the
-/// GLB is one file; elsewhere they are not used.
-pub fn write_with_images(
+/// What [`write_with`] is given beyond the scene.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct WriteOptions<'a> {
+    /// Image files as the scene names them, with their bytes ([`SideFiles::images`]),
+    /// stored in the binary chunk when the output is a GLB, so that the GLB is one file;
+    /// elsewhere not used.
+    pub images: &'a [(String, Vec<u8>)],
+    /// The stem of the material library an OBJ gets beside it when it is written from a
+    /// glTF's materials or a PLY's textures: `STEM.mtl`, with the images the glTF
+    /// stores extracted as `STEM_imageN.EXT`. By default the output's own stem; files
+    /// given the same one in one folder share one library (`animate`'s frames), since
+    /// a side file already there with the same bytes is left alone.
+    pub library: Option<&'a str>,
+}
+
+/// [`write`], with [`WriteOptions`].
+pub fn write_with(
     scene: &Scene,
     path: &Path,
-    images: &[(String, Vec<u8>)],
+    options: WriteOptions,
 ) -> Result<WriteNotes, MeshError> {
     let format = Format::from_path(path)?;
     let io_error = |e| MeshError::io(path, e);
@@ -288,7 +301,7 @@ pub fn write_with_images(
         Format::Obj => {
             scene.check_flattenable().map_err(too_large)?;
             let mut names = None;
-            if let Some((file, library)) = obj_material_library(scene, path) {
+            if let Some((file, library)) = obj_material_library(scene, path, options.library) {
                 let beside = |file: &str| path.with_file_name(file);
                 let mut files = vec![(beside(&file), library.text.into_bytes())];
                 let images = library.images.into_iter();
@@ -307,7 +320,8 @@ pub fn write_with_images(
         }
         Format::Stl => stl::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
         Format::Gltf | Format::Glb => {
-            notes = gltf::write(scene, path, format == Format::Glb, images).map_err(io_error)?;
+            notes = gltf::write(scene, path, format == Format::Glb, options.images)
+                .map_err(io_error)?;
         }
     }
     notes.not_held.splice(0..0, not_held(scene, format));
@@ -316,9 +330,17 @@ pub fn write_with_images(
 }
 
 /// For an OBJ written from a glTF with materials: the material library translated from
-/// them ([`gltf::mtl_library`]) and its file name, `STEM.mtl` beside the output.
-fn obj_material_library(scene: &Scene, path: &Path) -> Option<(String, gltf::MtlLibrary)> {
-    let stem = path.file_stem()?.to_string_lossy();
+/// them ([`gltf::mtl_library`]) and its file name, `STEM.mtl` beside the output, STEM
+/// being `library` or else the output's stem.
+fn obj_material_library(
+    scene: &Scene,
+    path: &Path,
+    library: Option<&str>,
+) -> Option<(String, gltf::MtlLibrary)> {
+    let stem = match library {
+        Some(stem) => stem.into(),
+        None => path.file_stem()?.to_string_lossy(),
+    };
     // One word, so that `mtllib` and the maps name it whole.
     let stem = stem.replace(char::is_whitespace, "_");
     let library = match scene.document.as_deref() {

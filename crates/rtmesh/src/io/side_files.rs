@@ -47,7 +47,7 @@ pub struct SideFiles {
     /// The image files read to be stored in a GLB (PNG and JPEG, the image types glTF's
     /// core holds in a buffer), not copied.
     pub embedded: Vec<PathBuf>,
-    /// Their bytes, by the name the materials give them, for [`super::write_with_images`].
+    /// Their bytes, by the name the materials give them, for [`super::write_with`].
     #[serde(skip)]
     pub images: Vec<(String, Vec<u8>)>,
 }
