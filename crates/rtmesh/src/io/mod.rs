@@ -383,7 +383,7 @@ fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     // The vertex attributes the format holds; `None`: every one (PLY, glTF).
     let held: Option<&[&str]> = match format {
         Format::Gltf | Format::Glb => return lost,
-        Format::Obj => Some(&["NORMAL", "TEXCOORD_0", "COLOR_0"]),
+        Format::Obj => Some(&["NORMAL", "TEXCOORD_0", obj::TEXCOORD_W, "COLOR_0"]),
         Format::Ply => None,
         Format::Stl => Some(&[]),
     };

@@ -12,7 +12,9 @@
 //! (`v x y z r g b`) become the attributes `TEXCOORD_0`, `NORMAL` and `COLOR_0`: each
 //! distinct (position, texture coordinate, normal) triple of a geometry is one vertex,
 //! so seams stay. (A corner without `vt` in a file that has some takes tobj's fallback,
-//! the geometry's previous one.) The `mtllib` references are kept as written and
+//! the geometry's previous one.) Where some `vt` has a third number (a 3D texture's
+//! w) that is not 0, the w are the attribute [`TEXCOORD_W`], written back as
+//! `vt u v w`. The `mtllib` references are kept as written and
 //! written back, with `usemtl` per run of material; [`super::copy_side_files`] copies
 //! the libraries and their textures beside an output in another folder.
 
@@ -98,34 +100,59 @@ pub(super) fn read<R: BufRead>(
         }
     }
     let refused = std::cell::RefCell::new(None);
-    let loaded = std::cell::RefCell::new(std::collections::HashSet::new());
-    let stand_ins_loaded = std::cell::Cell::new(false);
-    let (models, materials) = tobj::load_obj_buf(&mut lines, &options, |mtl| {
-        let name = mtl.to_string_lossy();
-        if !loaded.borrow_mut().insert(name.to_string()) {
-            return Ok(Default::default());
-        }
-        match fetch(&name) {
-            Ok(Some(bytes)) => {
-                let (mut materials, names) = tobj::load_mtl_buf(&mut &bytes[..])?;
-                for material in &mut materials {
-                    relative_to_obj(material, &name);
+    let parse = |lines: &mut CountingReader<'_, &[u8]>| {
+        let loaded = std::cell::RefCell::new(std::collections::HashSet::new());
+        let stand_ins_loaded = std::cell::Cell::new(false);
+        tobj::load_obj_buf(lines, &options, |mtl| {
+            let name = mtl.to_string_lossy();
+            if !loaded.borrow_mut().insert(name.to_string()) {
+                return Ok(Default::default());
+            }
+            match fetch(&name) {
+                Ok(Some(bytes)) => {
+                    let (mut materials, names) = tobj::load_mtl_buf(&mut &bytes[..])?;
+                    for material in &mut materials {
+                        relative_to_obj(material, &name);
+                    }
+                    Ok((materials, names))
                 }
-                Ok((materials, names))
+                Ok(None) if stand_ins_loaded.replace(true) => Ok(Default::default()),
+                Ok(None) => tobj::load_mtl_buf(&mut stand_ins.as_bytes()),
+                Err(error) => {
+                    refused.borrow_mut().get_or_insert(error);
+                    Err(tobj::LoadError::OpenFileFailed)
+                }
             }
-            Ok(None) if stand_ins_loaded.replace(true) => Ok(Default::default()),
-            Ok(None) => tobj::load_mtl_buf(&mut stand_ins.as_bytes()),
-            Err(error) => {
-                refused.borrow_mut().get_or_insert(error);
-                Err(tobj::LoadError::OpenFileFailed)
-            }
-        }
-    })
-    .map_err(|e| MeshError::at_line(path, lines.line(), describe(e)))?;
-    if let Some(error) = refused.into_inner() {
+        })
+        .map_err(|e| MeshError::at_line(path, lines.line(), describe(e)))
+    };
+    let (models, materials) = parse(&mut lines)?;
+    if let Some(error) = refused.borrow_mut().take() {
         return Err(error);
     }
     let materials = materials.unwrap_or_default();
+    // tobj reads two numbers of a `vt`; where a third (a 3D texture's w) is not 0 in
+    // some, the text is parsed again with each `vt u v w` written `vt w 0`, which gives
+    // the same models with every texture coordinate's w in place of its u (a second
+    // parse: about twice the time and peak memory of reading such a file).
+    let w_text = with_texcoord_w_first(&text);
+    let has_w = w_text.is_some();
+    let texcoord_w = match w_text {
+        Some(text) => {
+            let mut ignore = |_: u64, _: u64| {};
+            let mut lines = CountingReader::new(&text[..], text.len() as u64, &mut ignore);
+            let (w_models, _) = parse(&mut lines)?;
+            let same = |(a, b): (&tobj::Model, &tobj::Model)| {
+                a.mesh.texcoord_indices == b.mesh.texcoord_indices
+                    && a.mesh.texcoords.len() == b.mesh.texcoords.len()
+            };
+            // Always the same models; checked rather than trusted, since a mismatch
+            // would put w on the wrong corners.
+            (w_models.len() == models.len() && models.iter().zip(&w_models).all(same))
+                .then_some(w_models)
+        }
+        None => None,
+    };
 
     let mut scene = Scene {
         materials: materials
@@ -142,9 +169,10 @@ pub(super) fn read<R: BufRead>(
     let default_material = scene.materials.len() as u32;
     let mut needs_default = false;
     let mut faces_before = 0usize;
-    for model in &models {
+    for (m, model) in models.iter().enumerate() {
         let mesh = &model.mesh;
-        let ((positions, streams), corner_vertex) = vertices_of(mesh);
+        let w = texcoord_w.as_ref().map(|w| &w[m].mesh.texcoords[..]);
+        let ((positions, streams), corner_vertex) = vertices_of(mesh, w);
         let material = mesh.material_id.map_or_else(
             || {
                 needs_default = true;
@@ -213,6 +241,10 @@ pub(super) fn read<R: BufRead>(
     scene.read_notes.ignored_points = ignored_points;
     let names: Vec<&str> = scene.meshes.iter().map(|m| m.name.as_str()).collect();
     scene.read_notes.not_read.extend(not_kept(&text, &names));
+    if has_w && texcoord_w.is_none() {
+        let note = "OBJ texture coordinates' third number (`vt u v w`): tobj read the file differently the second time";
+        scene.read_notes.not_read.push(note.to_owned());
+    }
     if needs_default || scene.materials.is_empty() {
         scene.materials.push(Material::default());
     }
@@ -401,9 +433,13 @@ fn look(material: &tobj::Material) -> MtlLook {
 /// The vertices of one tobj model, each distinct (position, texture coordinate, normal)
 /// triple of its corners once, in order of first use: positions and attribute streams,
 /// and the vertex of every corner. A model with neither `vt` nor `vn` keeps tobj's
-/// vertices as they are.
+/// vertices as they are. `texcoord_w`, where given, holds each texture coordinate's w
+/// in the place of its u (`with_texcoord_w_first`): the stream [`TEXCOORD_W`].
 #[allow(clippy::type_complexity)]
-fn vertices_of(mesh: &tobj::Mesh) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32>) {
+fn vertices_of(
+    mesh: &tobj::Mesh,
+    texcoord_w: Option<&[f32]>,
+) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32>) {
     let position = |v: usize| {
         Vec3::new(
             mesh.positions[3 * v],
@@ -416,8 +452,8 @@ fn vertices_of(mesh: &tobj::Mesh) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32
         !mesh.vertex_color.is_empty() && mesh.vertex_color.len() == mesh.positions.len();
     let uv = (!mesh.texcoord_indices.is_empty()).then_some(&mesh.texcoord_indices);
     let normal = (!mesh.normal_indices.is_empty()).then_some(&mesh.normal_indices);
-    let (mut positions, mut uvs, mut normals, mut colours) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut positions, mut uvs, mut ws, mut normals, mut colours) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let corners = if uv.is_none() && normal.is_none() {
         let n = mesh.positions.len() / 3;
         positions.extend((0..n).map(position));
@@ -441,6 +477,9 @@ fn vertices_of(mesh: &tobj::Mesh) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32
                     if uv.is_some() {
                         let t = key.1 as usize;
                         uvs.push([mesh.texcoords[2 * t], mesh.texcoords[2 * t + 1]]);
+                        if let Some(w) = texcoord_w {
+                            ws.push([w[2 * t]]);
+                        }
                     }
                     if normal.is_some() {
                         let n = key.2 as usize;
@@ -457,6 +496,9 @@ fn vertices_of(mesh: &tobj::Mesh) -> ((Vec<Vec3>, Vec<VertexAttribute>), Vec<u32
     let mut streams = Vec::new();
     if uv.is_some() {
         streams.push(VertexAttribute::from_f32("TEXCOORD_0", &uvs));
+        if texcoord_w.is_some() {
+            streams.push(VertexAttribute::from_f32(TEXCOORD_W, &ws));
+        }
     }
     if normal.is_some() {
         streams.push(VertexAttribute::from_f32("NORMAL", &normals));
@@ -490,20 +532,15 @@ fn arguments<'a>(text: &'a [u8], keyword: &'a [u8]) -> impl Iterator<Item = Stri
 /// smoothing groups (`s`) in a file without normals, which are how a tool would build
 /// them; the names of objects and groups that name no faces of their own (a geometry
 /// takes the name of the last `o` or `g` before its faces, so an object holding named
-/// groups loses its own: `geometry_names` are those kept); and `vt`'s third number (a
-/// 3D texture's w) where it is not 0.
+/// groups loses its own: `geometry_names` are those kept).
 fn not_kept(text: &[u8], geometry_names: &[&str]) -> Vec<String> {
-    let (mut smoothing, mut normals, mut with_w) = (0usize, false, 0usize);
+    let (mut smoothing, mut normals) = (0usize, false);
     let mut unnamed: Vec<String> = Vec::new();
     for line in text.split(|&b| b == b'\n') {
         let mut words = line
             .split(u8::is_ascii_whitespace)
             .filter(|w| !w.is_empty());
         match words.next() {
-            Some(b"vt") => {
-                let w = words.nth(2);
-                with_w += w.is_some_and(|w| w.iter().any(|b| !b"0.+-".contains(b))) as usize;
-            }
             Some(b"vn") => normals = true,
             Some(b"s") => {
                 smoothing += words.next().is_some_and(|g| g != b"off" && g != b"0") as usize
@@ -532,12 +569,46 @@ fn not_kept(text: &[u8], geometry_names: &[&str]) -> Vec<String> {
             unnamed.join(", ")
         ));
     }
-    if with_w > 0 {
-        notes.push(format!(
-            "OBJ texture coordinates' third number (`vt u v w`, w not 0): {with_w}"
-        ));
-    }
     notes
+}
+
+/// The name of the stream of an OBJ's texture coordinates' third number (`vt u v w`,
+/// a 3D texture's w), kept where some w is not 0: glTF's `TEXCOORD_n` hold two, so it
+/// is an attribute of its own, named as glTF names an application's.
+pub const TEXCOORD_W: &str = "_TEXCOORD_0_W";
+
+/// `text` with each `vt u v [w]` written `vt w 0` (w 0 where there is none or it is no
+/// number), where some w is not 0; `None` where none is. Line breaks stay where they
+/// were, so tobj reads the same models from it.
+fn with_texcoord_w_first(text: &[u8]) -> Option<Vec<u8>> {
+    let third = |line: &[u8]| -> Option<Vec<u8>> {
+        let mut words = line
+            .split(u8::is_ascii_whitespace)
+            .filter(|w| !w.is_empty());
+        // tobj reads no third word, so one that is not a number stands as a missing w.
+        let number = |w: &&[u8]| std::str::from_utf8(w).is_ok_and(|w| w.parse::<f32>().is_ok());
+        (words.next() == Some(b"vt")).then(|| words.nth(2).filter(number).unwrap_or(b"0").to_vec())
+    };
+    let nonzero = |w: &[u8]| w.iter().any(|b| !b"0.+-".contains(b));
+    let lines = text.split(|&b| b == b'\n');
+    if !lines.clone().filter_map(third).any(|w| nonzero(&w)) {
+        return None;
+    }
+    let mut out = Vec::with_capacity(text.len());
+    for (n, line) in lines.enumerate() {
+        if n > 0 {
+            out.push(b'\n');
+        }
+        match third(line) {
+            Some(w) => {
+                out.extend_from_slice(b"vt ");
+                out.extend_from_slice(&w);
+                out.extend_from_slice(b" 0");
+            }
+            None => out.extend_from_slice(line),
+        }
+    }
+    Some(out)
 }
 
 /// `text` with its `l` (polyline) and `p` (point) statements blanked, their line breaks
@@ -776,15 +847,23 @@ pub(super) fn write(
                 write_distinct(&mut out, "v", &placed, position_base)?
             }
         };
-        let uv = mesh.attribute("TEXCOORD_0").map(|uv| {
-            let values: Vec<[f32; 2]> = (0..mesh.positions.len())
-                .map(|v| [uv.value(v, 0) as f32, uv.value(v, 1) as f32])
-                .collect();
-            values
-        });
-        let uv = match uv {
-            Some(values) => Some(write_distinct(&mut out, "vt", &values, uv_base)?),
-            None => None,
+        let uv = match (mesh.attribute("TEXCOORD_0"), mesh.attribute(TEXCOORD_W)) {
+            (Some(uv), w) => {
+                let uv = |v, c| uv.value(v, c) as f32;
+                let values: Vec<[f32; 2]> = (0..mesh.positions.len())
+                    .map(|v| [uv(v, 0), uv(v, 1)])
+                    .collect();
+                Some(match w {
+                    Some(w) => {
+                        let with_w: Vec<[f32; 3]> = (values.iter().enumerate())
+                            .map(|(v, &[u, t])| [u, t, w.value(v, 0) as f32])
+                            .collect();
+                        write_distinct(&mut out, "vt", &with_w, uv_base)?
+                    }
+                    None => write_distinct(&mut out, "vt", &values, uv_base)?,
+                })
+            }
+            (None, _) => None,
         };
         let normal = mesh.attribute("NORMAL").map(|n| {
             let mut n = n.dequantized().into_owned();

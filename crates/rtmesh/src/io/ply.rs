@@ -144,6 +144,7 @@ const KNOWN_GROUPS: &[(&str, &[&str])] = &[
     ("TEXCOORD_0", &["s", "t"]),
     ("TEXCOORD_0", &["texture_u", "texture_v"]),
     ("TEXCOORD_0", &["texture_s", "texture_t"]),
+    (super::obj::TEXCOORD_W, &["texture_w"]),
 ];
 
 /// An element's extra properties as attributes: known groups of one type (`nx ny nz`,
@@ -728,6 +729,7 @@ fn property_names(attribute: &VertexAttribute) -> Vec<String> {
         "NORMAL" => &["nx", "ny", "nz"],
         "COLOR_0" => &["red", "green", "blue", "alpha"],
         "TEXCOORD_0" => &["u", "v"],
+        super::obj::TEXCOORD_W => &["texture_w"],
         _ => &[],
     };
     let base = attribute

@@ -601,15 +601,12 @@ fn obj_smoothing_groups_are_named_where_the_file_has_no_normals() {
 }
 
 #[test]
-fn obj_names_and_third_coordinates_it_cannot_keep_are_named() {
+fn obj_names_it_cannot_keep_are_named() {
     let obj = "o car\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0 0\nvt 1 0 0.5\nvt 0 1\ng wheel\nf 1/1 2/2 3/3\ng door\nf 1/1 3/3 2/2\n";
     let scene = read_bytes(Path::new("car.obj"), obj.as_bytes()).unwrap();
     assert_eq!(
         scene.read_notes.not_read,
-        [
-            "OBJ object and group names that name no faces of their own: car (each geometry takes the name of the last `o` or `g` before its faces)",
-            "OBJ texture coordinates' third number (`vt u v w`, w not 0): 1"
-        ]
+        ["OBJ object and group names that name no faces of their own: car (each geometry takes the name of the last `o` or `g` before its faces)"]
     );
     let plain = "o car\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0 0\nf 1/1 2/1 3/1\n";
     let scene = read_bytes(Path::new("car.obj"), plain.as_bytes()).unwrap();
@@ -618,6 +615,58 @@ fn obj_names_and_third_coordinates_it_cannot_keep_are_named() {
         "{:?}",
         scene.read_notes.not_read
     );
+}
+
+/// `vt`'s third number (a 3D texture's w), where some is not 0, is the attribute
+/// `_TEXCOORD_0_W`, exact corner by corner through OBJ, PLY and glTF and written back
+/// as `vt u v w` (tobj reads two numbers; before, w was named as not read and lost). A
+/// second geometry's own coordinates, a missing w (0) and one reused by two corners
+/// keep their places; a file whose w are all 0 gets no such attribute.
+#[test]
+fn obj_texture_coordinates_keep_their_third_number() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvt 0.25 0 0\nvt 1 0 0.5\nvt 0 1\n\
+               o first\nf 1/1 2/2 3/3\nvt 0.5 0.5 -2.125\no second\nf 2/2 4/4 3/3\n";
+    let corner_w = |scene: &Scene| -> Vec<[f64; 3]> {
+        let flat = scene.flatten().unwrap();
+        let w = flat.attribute(obj::TEXCOORD_W).expect("w kept");
+        let mut names: Vec<&str> = flat.attributes.iter().map(|a| a.name.as_str()).collect();
+        names.sort_unstable();
+        assert_eq!(names, ["TEXCOORD_0", obj::TEXCOORD_W]);
+        (flat.triangles.iter())
+            .map(|t| t.map(|v| w.get(v as usize, 0)))
+            .collect()
+    };
+    let scene = read_bytes(Path::new("w.obj"), obj.as_bytes()).unwrap();
+    assert!(scene.read_notes.not_read.is_empty());
+    let expected = [[0.0, 0.5, 0.0], [0.5, -2.125, 0.0]];
+    assert_eq!(corner_w(&scene), expected);
+    for extension in ["obj", "ply", "glb"] {
+        assert_eq!(
+            corner_w(&round_trip(&scene, extension)),
+            expected,
+            "{extension}"
+        );
+    }
+    let dir = std::env::temp_dir().join(format!("rtmesh-io-w-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write(&scene, &dir.join("w.obj")).unwrap();
+    let text = std::fs::read_to_string(dir.join("w.obj")).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let vt: Vec<&str> = text.lines().filter(|l| l.starts_with("vt ")).collect();
+    assert_eq!(
+        vt,
+        [
+            "vt 0.25 0 0",
+            "vt 1 0 0.5",
+            "vt 0 1 0",
+            "vt 1 0 0.5",
+            "vt 0.5 0.5 -2.125",
+            "vt 0 1 0"
+        ]
+    );
+    let zeros = "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0 0\nvt 1 0 0.0\nvt 0 1 -0\nf 1/1 2/2 3/3\n";
+    let scene = read_bytes(Path::new("zeros.obj"), zeros.as_bytes()).unwrap();
+    assert!(scene.meshes[0].attribute(obj::TEXCOORD_W).is_none());
 }
 
 /// Two primitives whose vertices are their own (two boxes, one material each) get
