@@ -124,6 +124,9 @@ pub fn print(name: &str, info: &MeshInfo) {
     for library in &d.material_libraries {
         println!("  material library   {library:>10}");
     }
+    if !d.stl_header.is_empty() {
+        println!("  STL header         {}", d.stl_header);
+    }
     if info.strip_degenerates_dropped > 0 {
         println!(
             "  strips             {:>10} degenerate strip triangles (swaps and joins) dropped on reading",

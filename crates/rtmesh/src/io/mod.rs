@@ -21,6 +21,7 @@ pub use gltf::GltfDocument;
 pub use obj::MAX_MATERIAL_LIBRARY_BYTES;
 pub use reference::MAX_REFERENCED_BYTES;
 pub use side_files::{check_side_files, copy_side_files, SideFileCheck, SideFiles};
+pub use stl::header_text as stl_header_text;
 
 use crate::mesh::{Material, Scene, TriMesh};
 use std::io::{BufRead, Read};
@@ -212,6 +213,12 @@ pub enum Document {
     },
     /// glTF/GLB: the whole document and its buffers.
     Gltf(Box<GltfDocument>),
+    /// Binary STL: its 80-byte header, free bytes that tools fill with a name, a note
+    /// or a default colour (Materialise's `COLOR=`), written back by the STL writer.
+    Stl {
+        /// The header, as read.
+        header: [u8; 80],
+    },
 }
 
 impl PartialEq for Document {
@@ -223,6 +230,7 @@ impl PartialEq for Document {
                     material_libraries: theirs,
                 },
             ) => material_libraries == theirs,
+            (Self::Stl { header }, Self::Stl { header: theirs }) => header == theirs,
             (Self::Gltf(a), Self::Gltf(b)) => {
                 a.buffers == b.buffers
                     && serde_json::to_value(&a.root).ok() == serde_json::to_value(&b.root).ok()
@@ -318,7 +326,14 @@ pub fn write_with(
             let flat = scene.flatten().map_err(too_large)?;
             ply::write(&flat, &scene.materials, path).map_err(io_error)?
         }
-        Format::Stl => stl::write(&scene.flatten().map_err(too_large)?, path).map_err(io_error)?,
+        Format::Stl => {
+            let header = match scene.document.as_deref() {
+                Some(Document::Stl { header }) => Some(header),
+                _ => None,
+            };
+            let flat = scene.flatten().map_err(too_large)?;
+            stl::write(&flat, header, path).map_err(io_error)?
+        }
         Format::Gltf | Format::Glb => {
             notes = gltf::write(scene, path, format == Format::Glb, options.images)
                 .map_err(io_error)?;
@@ -362,6 +377,16 @@ fn obj_material_library(
 /// points.
 fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     let mut lost = Vec::new();
+    if let (Some(Document::Stl { header }), false) =
+        (scene.document.as_deref(), format == Format::Stl)
+    {
+        let text = stl::header_text(header);
+        if !text.is_empty() && !text.starts_with(stl::OWN_HEADER) {
+            lost.push(format!(
+                "the binary STL header (\"{text}\"), which an STL output alone keeps"
+            ));
+        }
+    }
     let ply_textures = ply::texture_files(&scene.materials).is_some();
     if format != Format::Ply {
         let mut names = scene.triangle_attribute_names();

@@ -16,8 +16,12 @@
 //! extensions keep a facet colour in it), is kept as the triangle attribute
 //! [`ATTRIBUTE_WORD`], in PLY a face property of that name.
 //!
+//! A binary file's 80-byte header (free bytes: a name, a note, Materialise's `COLOR=`
+//! default colour) is kept as the scene's [`super::Document::Stl`].
+//!
 //! The writer emits binary STL of the flattened scene, with the facet normals computed
-//! from the corners and the attribute words kept (zero for a mesh without them).
+//! from the corners, the attribute words kept (zero for a mesh without them) and the
+//! source's header where it was a binary STL (else one naming rtmesh).
 
 use super::{CountingReader, MeshError};
 use crate::mesh::{weld_exact, Scene, TriMesh};
@@ -94,6 +98,8 @@ fn read_binary(bytes: &[u8]) -> Scene {
     }
     let mut scene = Scene::default();
     scene.push_mesh(mesh, Affine3A::IDENTITY);
+    let header = bytes[..80].try_into().expect("80 bytes");
+    scene.document = Some(std::sync::Arc::new(super::Document::Stl { header }));
     finish(scene)
 }
 
@@ -201,7 +207,21 @@ fn finish(mut scene: Scene) -> Scene {
     scene
 }
 
-pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
+/// How the header of a binary STL that rtmesh wrote from another format starts (then
+/// the version).
+pub(super) const OWN_HEADER: &str = "binary STL written by rtmesh";
+
+/// A binary STL header as text: bytes that are not printable ASCII as `\xNN`, trailing
+/// spaces and NULs left out (empty for a blank header).
+pub fn header_text(header: &[u8; 80]) -> String {
+    let end = header.iter().rposition(|&b| b != b' ' && b != 0);
+    header[..end.map_or(0, |e| e + 1)]
+        .escape_ascii()
+        .to_string()
+}
+
+/// Write `mesh` as binary STL, with `header` (a binary source's) or one naming rtmesh.
+pub(super) fn write(mesh: &TriMesh, header: Option<&[u8; 80]>, path: &Path) -> std::io::Result<()> {
     let count = u32::try_from(mesh.triangle_count()).map_err(|_| {
         std::io::Error::new(
             std::io::ErrorKind::InvalidInput,
@@ -209,9 +229,12 @@ pub(super) fn write(mesh: &TriMesh, path: &Path) -> std::io::Result<()> {
         )
     })?;
     let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
-    let mut header = [b' '; 80];
-    let title = format!("binary STL written by rtmesh {}", env!("CARGO_PKG_VERSION"));
-    header[..title.len()].copy_from_slice(title.as_bytes());
+    let header = header.copied().unwrap_or_else(|| {
+        let mut header = [b' '; 80];
+        let title = format!("{OWN_HEADER} {}", env!("CARGO_PKG_VERSION"));
+        header[..title.len()].copy_from_slice(title.as_bytes());
+        header
+    });
     out.write_all(&header)?;
     out.write_all(&count.to_le_bytes())?;
     let words = mesh

@@ -432,7 +432,58 @@ fn stl_attribute_words_are_kept_per_triangle() {
     };
     assert_eq!(facet_words(&written), facet_words(&coloured));
     let notes = write(&scene, &dir.join("out.glb")).unwrap();
-    assert_eq!(notes.not_held.len(), 1, "{:?}", notes.not_held);
+    assert_eq!(
+        notes.not_held,
+        [
+            "the binary STL header (\"solid but binary\"), which an STL output alone keeps",
+            "triangle attributes stl_attribute (of the formats, PLY alone holds values per triangle)"
+        ]
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A binary STL's 80-byte header (here Materialise's `COLOR=` default colour, bytes
+/// past ASCII included) is written back byte for byte by the STL writer, shown by
+/// `info` as text, and named where another format cannot hold it; a blank one, or the
+/// one rtmesh writes, is not named. Before, every STL written got rtmesh's header.
+#[test]
+fn stl_binary_headers_are_written_back() {
+    let triangle = [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
+    let mut bytes = binary_stl(&triangle, 1);
+    let header = b"COLOR=\x80\x40\x20\xff MATERIAL=\x01\x02\x03\x04";
+    bytes[..80].fill(0);
+    bytes[..header.len()].copy_from_slice(header);
+    let scene = read_bytes(Path::new("coloured.stl"), &bytes).unwrap();
+    let text = r"COLOR=\x80@ \xff MATERIAL=\x01\x02\x03\x04";
+    assert_eq!(crate::mesh::MeshInfo::of(&scene).document.stl_header, text);
+    let dir = std::env::temp_dir().join(format!("rtmesh-io-stl-header-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write(&scene, &dir.join("same.stl")).unwrap();
+    assert_eq!(
+        std::fs::read(dir.join("same.stl")).unwrap()[..84],
+        bytes[..84]
+    );
+    let notes = write(&scene, &dir.join("out.obj")).unwrap();
+    let note = format!("the binary STL header (\"{text}\"), which an STL output alone keeps");
+    assert_eq!(notes.not_held, [note]);
+    // A blank header, and the one rtmesh writes from another format, say nothing.
+    bytes[..80].fill(b' ');
+    let blank = read_bytes(Path::new("blank.stl"), &bytes).unwrap();
+    assert!(write(&blank, &dir.join("blank.obj"))
+        .unwrap()
+        .not_held
+        .is_empty());
+    let from_obj = round_trip(&blank, "obj");
+    write(&from_obj, &dir.join("own.stl")).unwrap();
+    let own = read(&dir.join("own.stl")).unwrap();
+    assert!(crate::mesh::MeshInfo::of(&own)
+        .document
+        .stl_header
+        .starts_with(stl::OWN_HEADER));
+    assert!(write(&own, &dir.join("own.obj"))
+        .unwrap()
+        .not_held
+        .is_empty());
     std::fs::remove_dir_all(&dir).ok();
 }
 

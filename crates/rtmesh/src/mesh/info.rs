@@ -98,6 +98,9 @@ pub struct DocumentSummary {
     pub cameras: usize,
     /// OBJ `mtllib` references, as written.
     pub material_libraries: Vec<String>,
+    /// A binary STL's header, as text (bytes that are not printable ASCII as `\xNN`,
+    /// trailing spaces and NULs left out), kept and written back; empty elsewhere.
+    pub stl_header: String,
 }
 
 impl DocumentSummary {
@@ -113,11 +116,15 @@ impl DocumentSummary {
                     textures: root.textures.len(),
                     images: root.images.len(),
                     cameras: root.cameras.len(),
-                    material_libraries: Vec::new(),
+                    ..Self::default()
                 }
             }
             Some(crate::io::Document::Obj { material_libraries }) => Self {
                 material_libraries: material_libraries.clone(),
+                ..Self::default()
+            },
+            Some(crate::io::Document::Stl { header }) => Self {
+                stl_header: crate::io::stl_header_text(header),
                 ..Self::default()
             },
             None => Self::default(),
