@@ -78,7 +78,7 @@ pub fn run(args: Args) -> Result<()> {
             materials: scene.materials.clone(),
             document: scene.document.as_deref().and_then(|d| match d {
                 Document::Gltf(gltf) => Some(Arc::new(Document::Gltf(Box::new(gltf.looks())))),
-                Document::Obj { .. } | Document::Stl { .. } => None,
+                Document::Obj { .. } | Document::Ply { .. } | Document::Stl { .. } => None,
             }),
             ..rtmesh::Scene::from_mesh(mesh)
         },

@@ -124,6 +124,9 @@ pub fn print(name: &str, info: &MeshInfo) {
     for library in &d.material_libraries {
         println!("  material library   {library:>10}");
     }
+    for comment in &d.ply_comments {
+        println!("  PLY comment        {comment}");
+    }
     if !d.stl_header.is_empty() {
         println!("  STL header         {}", d.stl_header);
     }

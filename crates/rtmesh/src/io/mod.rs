@@ -213,6 +213,15 @@ pub enum Document {
     },
     /// glTF/GLB: the whole document and its buffers.
     Gltf(Box<GltfDocument>),
+    /// PLY: the header's `comment` and `obj_info` lines (MeshLab's `TextureFile`
+    /// comments, which the materials hold, and rtmesh's own left out), written back by
+    /// the PLY writer.
+    Ply {
+        /// Each `comment` line's text, in header order.
+        comments: Vec<String>,
+        /// Each `obj_info` line's text, in header order.
+        obj_info: Vec<String>,
+    },
     /// Binary STL: its 80-byte header, free bytes that tools fill with a name, a note
     /// or a default colour (Materialise's `COLOR=`), written back by the STL writer.
     Stl {
@@ -231,6 +240,13 @@ impl PartialEq for Document {
                 },
             ) => material_libraries == theirs,
             (Self::Stl { header }, Self::Stl { header: theirs }) => header == theirs,
+            (
+                Self::Ply { comments, obj_info },
+                Self::Ply {
+                    comments: their_comments,
+                    obj_info: their_obj_info,
+                },
+            ) => comments == their_comments && obj_info == their_obj_info,
             (Self::Gltf(a), Self::Gltf(b)) => {
                 a.buffers == b.buffers
                     && serde_json::to_value(&a.root).ok() == serde_json::to_value(&b.root).ok()
@@ -324,7 +340,11 @@ pub fn write_with(
         }
         Format::Ply => {
             let flat = scene.flatten().map_err(too_large)?;
-            ply::write(&flat, &scene.materials, path).map_err(io_error)?
+            let header = match scene.document.as_deref() {
+                Some(Document::Ply { comments, obj_info }) => Some((&comments[..], &obj_info[..])),
+                _ => None,
+            };
+            ply::write(&flat, &scene.materials, header, path).map_err(io_error)?
         }
         Format::Stl => {
             let header = match scene.document.as_deref() {
@@ -363,7 +383,7 @@ fn obj_material_library(
             gltf::mtl_library(document, scene.materials.len(), &stem)
         }
         // A PLY's textures: the looks written as MTL.
-        None if scene.materials.iter().any(|m| m.mtl.is_some()) => {
+        None | Some(Document::Ply { .. }) if scene.materials.iter().any(|m| m.mtl.is_some()) => {
             obj::looks_library(&scene.materials)
         }
         _ => return None,
@@ -377,6 +397,24 @@ fn obj_material_library(
 /// points.
 fn not_held(scene: &Scene, format: Format) -> Vec<String> {
     let mut lost = Vec::new();
+    if let (Some(Document::Ply { comments, obj_info }), false) =
+        (scene.document.as_deref(), format == Format::Ply)
+    {
+        let lines: Vec<String> = comments
+            .iter()
+            .chain(obj_info)
+            .map(|l| format!("\"{l}\""))
+            .collect();
+        if !lines.is_empty() {
+            let shown = lines.len().min(3);
+            let more = if lines.len() > shown { ", …" } else { "" };
+            lost.push(format!(
+                "the PLY header's comment and obj_info lines: {} ({}{more}), which a PLY output alone keeps",
+                lines.len(),
+                lines[..shown].join(", ")
+            ));
+        }
+    }
     if let (Some(Document::Stl { header }), false) =
         (scene.document.as_deref(), format == Format::Stl)
     {

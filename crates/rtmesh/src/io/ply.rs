@@ -609,6 +609,16 @@ pub(super) fn read<R: BufRead>(
     }
     scene.read_notes.strip_degenerates_dropped = dropped;
     scene.read_notes.not_read = not_read;
+    let comments: Vec<String> = (header.comments.iter())
+        .filter(|c| !c.trim().starts_with(TEXTURE_FILE) && !c.starts_with(OWN_COMMENT))
+        .cloned()
+        .collect();
+    if !comments.is_empty() || !header.obj_infos.is_empty() {
+        scene.document = Some(std::sync::Arc::new(super::Document::Ply {
+            comments,
+            obj_info: header.obj_infos.clone(),
+        }));
+    }
     Ok(scene)
 }
 
@@ -779,8 +789,20 @@ fn as_ply_holds(attribute: &VertexAttribute) -> std::borrow::Cow<'_, VertexAttri
 /// every attribute's components under their PLY names and types), the payload in bulk
 /// in the header's order (per-property callbacks cost several times as much on the
 /// dragon).
-pub(super) fn write(mesh: &TriMesh, materials: &[Material], path: &Path) -> std::io::Result<()> {
-    write_with(mesh, texture_files(materials).as_deref(), None, path)
+/// `header` holds the source's comment and obj_info lines, written after rtmesh's own.
+pub(super) fn write(
+    mesh: &TriMesh,
+    materials: &[Material],
+    header: Option<(&[String], &[String])>,
+    path: &Path,
+) -> std::io::Result<()> {
+    write_with(
+        mesh,
+        texture_files(materials).as_deref(),
+        header,
+        None,
+        path,
+    )
 }
 
 /// The texture files MeshLab's [`TEXTURE_FILE`] comments can give `materials`: each
@@ -808,12 +830,17 @@ pub(super) fn write_strips(
     strips: &[Vec<u32>],
     path: &Path,
 ) -> std::io::Result<()> {
-    write_with(mesh, None, Some(strips), path)
+    write_with(mesh, None, None, Some(strips), path)
 }
+
+/// The comment rtmesh's PLY files start with (then the version): not kept on reading,
+/// so that round trips do not pile them up.
+const OWN_COMMENT: &str = "written by rtmesh";
 
 fn write_with(
     mesh: &TriMesh,
     textures: Option<&[&str]>,
+    kept: Option<(&[String], &[String])>,
     strips: Option<&[Vec<u32>]>,
     path: &Path,
 ) -> std::io::Result<()> {
@@ -823,7 +850,11 @@ fn write_with(
     header.encoding = Encoding::BinaryLittleEndian;
     header
         .comments
-        .push(format!("written by rtmesh {}", env!("CARGO_PKG_VERSION")));
+        .push(format!("{OWN_COMMENT} {}", env!("CARGO_PKG_VERSION")));
+    if let Some((comments, obj_info)) = kept {
+        header.comments.extend_from_slice(comments);
+        header.obj_infos.extend_from_slice(obj_info);
+    }
     for file in textures.into_iter().flatten() {
         header.comments.push(format!("{TEXTURE_FILE} {file}"));
     }

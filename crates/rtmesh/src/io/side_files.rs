@@ -140,7 +140,8 @@ fn references(input: &Path, scene: &Scene, format: Format, root: &Path) -> Vec<R
                     .map(|f| Reference::new(input, f.to_owned())),
             );
         }
-        (None, Format::Obj) | (_, Format::Gltf | Format::Glb) => {
+        (None | Some(Document::Ply { .. } | Document::Stl { .. }), Format::Obj)
+        | (_, Format::Gltf | Format::Glb) => {
             // A fresh document, or an MTL library written from the looks (a PLY's
             // textures): the images are the MTL textures the materials name.
             for look in scene.materials.iter().filter_map(|m| m.mtl.as_ref()) {

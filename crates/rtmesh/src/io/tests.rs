@@ -442,6 +442,62 @@ fn stl_attribute_words_are_kept_per_triangle() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A PLY header's `comment` and `obj_info` lines (a scanner's provenance, a licence)
+/// are written back in order by the PLY writer, after rtmesh's own comment and without
+/// piling it up over round trips; MeshLab's `TextureFile` comments are the materials'
+/// and written once; `info` lists them, and other formats name them as not held.
+/// Before, every PLY written had rtmesh's comment alone.
+#[test]
+fn ply_comments_and_obj_info_are_written_back() {
+    let ply = "ply\nformat ascii 1.0\ncomment zipper output\nobj_info scanner 3\n\
+               comment TextureFile t.png\ncomment  licence: CC-BY 4.0 \nelement vertex 3\n\
+               property float x\nproperty float y\nproperty float z\nelement face 1\n\
+               property list uchar int vertex_indices\nproperty int texnumber\nend_header\n\
+               0 0 0\n1 0 0\n0 1 0\n3 0 1 2 0\n";
+    let scene = read_bytes(Path::new("scan.ply"), ply.as_bytes()).unwrap();
+    let info = crate::mesh::MeshInfo::of(&scene);
+    let expected = ["zipper output", " licence: CC-BY 4.0 ", "scanner 3"];
+    assert_eq!(
+        info.document
+            .ply_comments
+            .iter()
+            .map(|c| c.trim())
+            .collect::<Vec<_>>(),
+        expected.map(str::trim)
+    );
+    let dir = std::env::temp_dir().join(format!("rtmesh-io-ply-comments-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    write(&scene, &dir.join("once.ply")).unwrap();
+    let once = read(&dir.join("once.ply")).unwrap();
+    write(&once, &dir.join("twice.ply")).unwrap();
+    let header = |file: &str| -> Vec<String> {
+        let bytes = std::fs::read(dir.join(file)).unwrap();
+        let end = bytes.windows(10).position(|w| w == b"end_header").unwrap();
+        (String::from_utf8_lossy(&bytes[..end]).lines())
+            .filter(|l| l.starts_with("comment") || l.starts_with("obj_info"))
+            .map(|l| l.trim().to_owned())
+            .collect()
+    };
+    let written = [
+        format!("comment written by rtmesh {}", env!("CARGO_PKG_VERSION")),
+        "comment zipper output".into(),
+        "comment licence: CC-BY 4.0".into(),
+        "comment TextureFile t.png".into(),
+        "obj_info scanner 3".into(),
+    ];
+    assert_eq!(header("once.ply"), written);
+    assert_eq!(header("twice.ply"), written);
+    assert_eq!(once.document, scene.document);
+    let notes = write(&scene, &dir.join("scan.glb")).unwrap();
+    assert!(
+        notes.not_held.iter().any(|n| n
+            .starts_with("the PLY header's comment and obj_info lines: 3 (\"zipper output\", ")),
+        "{:?}",
+        notes.not_held
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 /// A binary STL's 80-byte header (here Materialise's `COLOR=` default colour, bytes
 /// past ASCII included) is written back byte for byte by the STL writer, shown by
 /// `info` as text, and named where another format cannot hold it; a blank one, or the

@@ -98,6 +98,9 @@ pub struct DocumentSummary {
     pub cameras: usize,
     /// OBJ `mtllib` references, as written.
     pub material_libraries: Vec<String>,
+    /// A PLY header's `comment` and `obj_info` lines (but MeshLab's `TextureFile`
+    /// comments, which the materials hold), kept and written back.
+    pub ply_comments: Vec<String>,
     /// A binary STL's header, as text (bytes that are not printable ASCII as `\xNN`,
     /// trailing spaces and NULs left out), kept and written back; empty elsewhere.
     pub stl_header: String,
@@ -121,6 +124,10 @@ impl DocumentSummary {
             }
             Some(crate::io::Document::Obj { material_libraries }) => Self {
                 material_libraries: material_libraries.clone(),
+                ..Self::default()
+            },
+            Some(crate::io::Document::Ply { comments, obj_info }) => Self {
+                ply_comments: comments.iter().chain(obj_info).cloned().collect(),
                 ..Self::default()
             },
             Some(crate::io::Document::Stl { header }) => Self {
