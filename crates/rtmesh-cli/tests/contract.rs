@@ -939,23 +939,7 @@ fn baked_frames_keep_their_materials_and_textures() {
     for (model, format) in [("BrainStem", "glb"), ("Fox", "glb"), ("CesiumMan", "gltf")] {
         let source_path = data.join(format!("animated/{model}.glb"));
         let dir = scratch("animate-looks");
-        let out = rtmesh(&[
-            "animate",
-            source_path.to_str().unwrap(),
-            "--motion",
-            "gltf",
-            "--frames",
-            "2",
-            "--format",
-            format,
-            "-o",
-            dir.path().to_str().unwrap(),
-        ]);
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        bake_frames(&source_path, 2, format, dir.path());
         let source = rtmesh::io::read(&source_path).unwrap();
         let rest = source.flatten().unwrap();
         let source_document = gltf_document(&source);
@@ -1013,6 +997,28 @@ fn baked_frames_keep_their_materials_and_textures() {
     }
 }
 
+/// `rtmesh animate SOURCE --motion gltf --frames FRAMES --format FORMAT -o DIR`, which
+/// must succeed.
+fn bake_frames(source: &std::path::Path, frames: usize, format: &str, dir: &std::path::Path) {
+    let out = rtmesh(&[
+        "animate",
+        source.to_str().unwrap(),
+        "--motion",
+        "gltf",
+        "--frames",
+        &frames.to_string(),
+        "--format",
+        format,
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// OBJ frames of a glTF share one material library, named after the input, and one
 /// copy of each image the glTF stores (before, each frame had its own library and its
 /// own copy of every image: 100 frames, 100 copies).
@@ -1023,23 +1029,7 @@ fn obj_frames_share_one_material_library() {
     };
     let source_path = data.join("animated/Fox.glb");
     let dir = scratch("animate-obj-library");
-    let out = rtmesh(&[
-        "animate",
-        source_path.to_str().unwrap(),
-        "--motion",
-        "gltf",
-        "--frames",
-        "3",
-        "--format",
-        "obj",
-        "-o",
-        dir.path().to_str().unwrap(),
-    ]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    bake_frames(&source_path, 3, "obj", dir.path());
     let mut written: Vec<String> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
