@@ -7,6 +7,8 @@ expectations by subcommand in `.ci/hostile.sh`. Every class of failure in
 issue 36, and something for every reader."""
 import base64, json, math, os, struct, sys
 
+if len(sys.argv) != 2 or sys.argv[1].startswith("-"):
+    sys.exit("usage: hostile_corpus.py FOLDER (the corpus goes to FOLDER/asset)")
 root = sys.argv[1]
 asset = os.path.join(root, "asset")
 os.makedirs(asset, exist_ok=True)

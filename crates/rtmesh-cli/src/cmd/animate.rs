@@ -109,6 +109,7 @@ pub fn run(args: Args) -> Result<()> {
         let options = WriteOptions {
             images: &images,
             library: library.as_deref(),
+            library_in_place: f > 0,
         };
         if f == 0 {
             write_noting(&args.mesh, &frame, &path, options)?;

@@ -21,7 +21,7 @@ pub use gltf::GltfDocument;
 pub use obj::MAX_MATERIAL_LIBRARY_BYTES;
 pub use reference::MAX_REFERENCED_BYTES;
 pub use side_files::{check_side_files, copy_side_files, SideFileCheck, SideFiles};
-pub use stl::header_text as stl_header_text;
+pub(crate) use stl::header_text as stl_header_text;
 
 use crate::mesh::{Material, Scene, TriMesh};
 use std::io::{BufRead, Read};
@@ -304,6 +304,10 @@ pub struct WriteOptions<'a> {
     /// given the same one in one folder share one library (`animate`'s frames), since
     /// a side file already there with the same bytes is left alone.
     pub library: Option<&'a str>,
+    /// The library and its images are beside the output already, written for an
+    /// earlier file with the same `library` stem: the OBJ names them, and they are not
+    /// read back for comparison or written again.
+    pub library_in_place: bool,
 }
 
 /// [`write`], with [`WriteOptions`].
@@ -330,8 +334,10 @@ pub fn write_with(
                 let mut files = vec![(beside(&file), library.text.into_bytes())];
                 let images = library.images.into_iter();
                 files.extend(images.map(|(image, bytes)| (beside(&image), bytes)));
-                side_files::write_beside(&files, path)?;
-                notes.written_beside = files.into_iter().map(|(file, _)| file).collect();
+                if !options.library_in_place {
+                    side_files::write_beside(&files, path)?;
+                    notes.written_beside = files.into_iter().map(|(file, _)| file).collect();
+                }
                 notes.not_held = library.not_held;
                 names = Some((file, library.names));
             }

@@ -581,17 +581,17 @@ pub const TEXCOORD_W: &str = "_TEXCOORD_0_W";
 /// number), where some w is not 0; `None` where none is. Line breaks stay where they
 /// were, so tobj reads the same models from it.
 fn with_texcoord_w_first(text: &[u8]) -> Option<Vec<u8>> {
-    let third = |line: &[u8]| -> Option<Vec<u8>> {
+    fn third(line: &[u8]) -> Option<&[u8]> {
         let mut words = line
             .split(u8::is_ascii_whitespace)
             .filter(|w| !w.is_empty());
         // tobj reads no third word, so one that is not a number stands as a missing w.
         let number = |w: &&[u8]| std::str::from_utf8(w).is_ok_and(|w| w.parse::<f32>().is_ok());
-        (words.next() == Some(b"vt")).then(|| words.nth(2).filter(number).unwrap_or(b"0").to_vec())
-    };
+        (words.next() == Some(b"vt")).then(|| words.nth(2).filter(number).unwrap_or(b"0"))
+    }
     let nonzero = |w: &[u8]| w.iter().any(|b| !b"0.+-".contains(b));
     let lines = text.split(|&b| b == b'\n');
-    if !lines.clone().filter_map(third).any(|w| nonzero(&w)) {
+    if !lines.clone().filter_map(third).any(nonzero) {
         return None;
     }
     let mut out = Vec::with_capacity(text.len());
@@ -602,7 +602,7 @@ fn with_texcoord_w_first(text: &[u8]) -> Option<Vec<u8>> {
         match third(line) {
             Some(w) => {
                 out.extend_from_slice(b"vt ");
-                out.extend_from_slice(&w);
+                out.extend_from_slice(w);
                 out.extend_from_slice(b" 0");
             }
             None => out.extend_from_slice(line),
@@ -847,21 +847,20 @@ pub(super) fn write(
                 write_distinct(&mut out, "v", &placed, position_base)?
             }
         };
+        let vertices = 0..mesh.positions.len();
         let uv = match (mesh.attribute("TEXCOORD_0"), mesh.attribute(TEXCOORD_W)) {
-            (Some(uv), w) => {
-                let uv = |v, c| uv.value(v, c) as f32;
-                let values: Vec<[f32; 2]> = (0..mesh.positions.len())
-                    .map(|v| [uv(v, 0), uv(v, 1)])
+            (Some(uv), Some(w)) => {
+                let value = |a: &VertexAttribute, v, c| a.value(v, c) as f32;
+                let values: Vec<[f32; 3]> = (vertices.clone())
+                    .map(|v| [value(uv, v, 0), value(uv, v, 1), value(w, v, 0)])
                     .collect();
-                Some(match w {
-                    Some(w) => {
-                        let with_w: Vec<[f32; 3]> = (values.iter().enumerate())
-                            .map(|(v, &[u, t])| [u, t, w.value(v, 0) as f32])
-                            .collect();
-                        write_distinct(&mut out, "vt", &with_w, uv_base)?
-                    }
-                    None => write_distinct(&mut out, "vt", &values, uv_base)?,
-                })
+                Some(write_distinct(&mut out, "vt", &values, uv_base)?)
+            }
+            (Some(uv), None) => {
+                let values: Vec<[f32; 2]> = (vertices.clone())
+                    .map(|v| [uv.value(v, 0) as f32, uv.value(v, 1) as f32])
+                    .collect();
+                Some(write_distinct(&mut out, "vt", &values, uv_base)?)
             }
             (None, _) => None,
         };
