@@ -14,8 +14,10 @@ use std::sync::Arc;
 /// each as DIR/frame-FFFF.EXT.
 ///
 /// A procedural motion moves the first geometry; the rest of the scene (other
-/// geometries, nodes, materials, every vertex attribute) is written as it was, and
-/// normals are not re-derived. --motion gltf plays the file's animation (skins, node
+/// geometries, nodes, materials, every vertex attribute) is written as it was, but for
+/// the geometry's normals and tangents, which turn with the motion (by its Jacobian at
+/// each vertex, so authored normals and hard edges stay as they were made rather than
+/// being re-derived). --motion gltf plays the file's animation (skins, node
 /// channels, morph targets) and writes each frame baked: one world-space geometry with
 /// its normals and tangents skinned and morphed, its materials with their textures
 /// (a GLB frame stores the images; OBJ frames share one MTL library named after the

@@ -153,12 +153,13 @@ impl Animation {
         }
     }
 
-    /// `mesh` (the one [`Animation::of`] gave) moved to `phase`: its positions, and for
-    /// a glTF animation its `NORMAL`s and `TANGENT`s morphed and turned with the skin
-    /// (a tangent's w, the bitangent's sign, kept).
+    /// `mesh` (the one [`Animation::of`] gave) moved to `phase`: its positions, and its
+    /// `NORMAL`s and `TANGENT`s turned with it (a tangent's w, the bitangent's sign,
+    /// kept): by a procedural motion's Jacobian, or morphed and turned with a glTF
+    /// animation's skin.
     pub fn pose(&self, phase: f32, mesh: &mut TriMesh) {
         match &self.0 {
-            Kind::Procedural(d) => mesh.positions = d.positions(phase),
+            Kind::Procedural(d) => d.pose(phase, mesh),
             Kind::Gltf(g) => {
                 let (positions, directions) = g.evaluate(Self::time(g, phase), true);
                 mesh.positions = positions;

@@ -8,8 +8,8 @@
 
 use crate::analysis::Pieces;
 use crate::geom::Aabb;
-use crate::mesh::TriMesh;
-use glam::{Quat, Vec3};
+use crate::mesh::{Semantic, TriMesh, VertexAttribute};
+use glam::{Mat3, Quat, Vec3};
 use rayon::prelude::*;
 
 /// A procedural motion.
@@ -54,6 +54,8 @@ pub(super) struct Deform {
     /// Explode: the part (piece or cell) of every vertex, and each part's centre.
     parts: Vec<u32>,
     part_centres: Vec<Vec3>,
+    /// The rest pose's normals and tangents, which each frame turns.
+    directions: Vec<VertexAttribute>,
 }
 
 impl Deform {
@@ -71,6 +73,27 @@ impl Deform {
             motion,
             parts,
             part_centres,
+            directions: mesh
+                .attributes
+                .iter()
+                .filter(|a| {
+                    matches!(a.semantic(), Semantic::Normal | Semantic::Tangent)
+                        && a.vertex_count() == mesh.positions.len()
+                })
+                .cloned()
+                .collect(),
+        }
+    }
+
+    /// `mesh` (the one it was made from) moved to `phase`: its positions, and its
+    /// normals and tangents turned by the motion's Jacobian from their rest values.
+    pub fn pose(&self, phase: f32, mesh: &mut TriMesh) {
+        mesh.positions = self.positions(phase);
+        for rest in &self.directions {
+            if let Some(a) = mesh.attributes.iter_mut().find(|a| a.name == rest.name) {
+                *a = rest.clone();
+                a.transform_each(|v| self.jacobian(v, phase));
+            }
         }
     }
 
@@ -81,53 +104,70 @@ impl Deform {
 
     /// The positions at `phase` in [0, 1].
     pub fn positions(&self, phase: f32) -> Vec<Vec3> {
+        (0..self.rest.len())
+            .into_par_iter()
+            .map(|v| self.moved(v, phase).0)
+            .collect()
+    }
+
+    /// The Jacobian ∂f/∂p of the motion f at vertex `v` and `phase`: what turns its
+    /// tangents (by J) and normals (by J⁻ᵀ).
+    pub fn jacobian(&self, v: usize, phase: f32) -> Mat3 {
+        self.moved(v, phase).1
+    }
+
+    /// Vertex `v` at `phase`, and the motion's Jacobian there. Twist and bend are
+    /// rotations R(a) by an angle a = k·(y − y₀) that grows with height, so
+    /// f(p) = o + R(a)(p − o) and J = R + (axis × R(p − o)) · k ŷᵀ; the wave is a shear,
+    /// J = I + across · ∂offset/∂along; a piece of the explosion moves rigidly, J = its
+    /// spin.
+    fn moved(&self, v: usize, phase: f32) -> (Vec3, Mat3) {
         let b = &self.bounds;
         let extent = b.extent().max(Vec3::splat(f32::MIN_POSITIVE));
         let centre = b.center();
-        (0..self.rest.len())
-            .into_par_iter()
-            .map(|v| {
-                let p = self.rest[v];
-                match self.motion {
-                    Procedural::Twist => {
-                        let h = (p.y - b.min.y) / extent.y;
-                        let angle = phase * std::f32::consts::FRAC_PI_2 * h;
-                        let q = Quat::from_rotation_y(angle);
-                        centre + q * (p - centre)
-                    }
-                    Procedural::Bend => {
-                        let h = (p.y - b.min.y) / extent.y;
-                        let angle = phase * std::f32::consts::FRAC_PI_2 * h;
-                        let pivot = Vec3::new(centre.x, b.min.y, centre.z);
-                        pivot + Quat::from_rotation_x(angle) * (p - pivot)
-                    }
-                    Procedural::Wave => {
-                        let axis = extent.max_element();
-                        let (along, across) = if axis == extent.x {
-                            ((p.x - b.min.x) / extent.x, Vec3::Y)
-                        } else if axis == extent.y {
-                            ((p.y - b.min.y) / extent.y, Vec3::Z)
-                        } else {
-                            ((p.z - b.min.z) / extent.z, Vec3::Y)
-                        };
-                        let offset =
-                            0.1 * axis * phase * (std::f32::consts::TAU * 2.0 * along).sin();
-                        p + across * offset
-                    }
-                    Procedural::Explode => {
-                        let part = self.parts[v] as usize;
-                        let c = self.part_centres[part];
-                        let away = (c - centre).normalize_or(Vec3::Y);
-                        let spin = Quat::from_axis_angle(
-                            away.any_orthonormal_vector(),
-                            phase * std::f32::consts::PI,
-                        );
-                        let moved = c + away * phase * 0.5 * b.diagonal_length();
-                        moved + spin * (p - c)
-                    }
-                }
-            })
-            .collect()
+        let p = self.rest[v];
+        // A rotation about `axis` through `origin` by k·(y − y₀).
+        let turned_with_height = |axis: Vec3, origin: Vec3| {
+            let k = phase * std::f32::consts::FRAC_PI_2 / extent.y;
+            let q = Quat::from_axis_angle(axis, k * (p.y - b.min.y));
+            let arm = q * (p - origin);
+            let shear = Mat3::from_cols(Vec3::ZERO, axis.cross(arm) * k, Vec3::ZERO);
+            (origin + arm, Mat3::from_quat(q) + shear)
+        };
+        match self.motion {
+            Procedural::Twist => turned_with_height(Vec3::Y, centre),
+            Procedural::Bend => turned_with_height(Vec3::X, Vec3::new(centre.x, b.min.y, centre.z)),
+            Procedural::Wave => {
+                let axis = extent.max_element();
+                let (a, across) = if axis == extent.x {
+                    (0, Vec3::Y)
+                } else if axis == extent.y {
+                    (1, Vec3::Z)
+                } else {
+                    (2, Vec3::Y)
+                };
+                let along = (p[a] - b.min[a]) / extent[a];
+                let (sin, cos) = (std::f32::consts::TAU * 2.0 * along).sin_cos();
+                let amplitude = 0.1 * axis * phase;
+                let mut shear = [Vec3::ZERO; 3];
+                shear[a] = across * (amplitude * cos * std::f32::consts::TAU * 2.0 / extent[a]);
+                (
+                    p + across * (amplitude * sin),
+                    Mat3::IDENTITY + Mat3::from_cols(shear[0], shear[1], shear[2]),
+                )
+            }
+            Procedural::Explode => {
+                let part = self.parts[v] as usize;
+                let c = self.part_centres[part];
+                let away = (c - centre).normalize_or(Vec3::Y);
+                let spin = Quat::from_axis_angle(
+                    away.any_orthonormal_vector(),
+                    phase * std::f32::consts::PI,
+                );
+                let moved = c + away * phase * 0.5 * b.diagonal_length();
+                (moved + spin * (p - c), Mat3::from_quat(spin))
+            }
+        }
     }
 }
 
@@ -200,6 +240,162 @@ mod tests {
             }
             // A twist about the vertical axis keeps heights.
             assert!((p.y - q.y).abs() < 1e-5);
+        }
+    }
+
+    /// Area-weighted vertex normals of `positions` over `mesh`'s triangles, and which
+    /// vertices they do not stand for: those with a triangle whose corners lie in
+    /// different parts of `deform`, or whose triangles' normals spread (where the
+    /// weighted sum is under 0.9 of the sum of the areas, it turns with small changes
+    /// of shape).
+    fn vertex_normals(
+        mesh: &TriMesh,
+        positions: &[Vec3],
+        deform: &Deform,
+    ) -> (Vec<Vec3>, Vec<bool>) {
+        let mut sums = vec![(Vec3::ZERO, 0.0f32); positions.len()];
+        let mut torn = vec![false; positions.len()];
+        for t in &mesh.triangles {
+            let [a, b, c] = t.map(|v| positions[v as usize]);
+            let parts = t.map(|v| deform.parts.get(v as usize).copied());
+            let area = (b - a).cross(c - a);
+            for &v in t {
+                sums[v as usize].0 += area;
+                sums[v as usize].1 += area.length();
+                torn[v as usize] |= parts[0] != parts[1] || parts[1] != parts[2];
+            }
+        }
+        let normals = sums.iter().map(|s| s.0.normalize()).collect();
+        for (v, s) in sums.iter().enumerate() {
+            torn[v] |= s.0.length() < 0.9 * s.1;
+        }
+        (normals, torn)
+    }
+
+    #[test]
+    fn the_jacobian_is_the_derivative_of_the_motion() {
+        let mesh = crate::scenes::scan_blob(2_000, 3);
+        let step = 1e-3 * mesh.bounds().diagonal_length();
+        for motion in [Procedural::Twist, Procedural::Bend, Procedural::Wave] {
+            let deform = Deform::new(&mesh, motion);
+            let phase = 0.7;
+            for v in (0..mesh.positions.len()).step_by(17) {
+                // f at p ± step along each axis, as vertices of a copy whose bounds
+                // are the same (each displaced point is moved back inside them).
+                let jacobian = deform.jacobian(v, phase);
+                for axis in 0..3 {
+                    let d = Vec3::AXES[axis] * step;
+                    let mut probe = deform.rest.clone();
+                    let p = probe[v];
+                    let inside = |q: Vec3| q.clamp(deform.bounds.min, deform.bounds.max);
+                    let (lo, hi) = (inside(p - d), inside(p + d));
+                    probe.push(lo);
+                    probe.push(hi);
+                    let at = Deform {
+                        rest: probe,
+                        ..Deform::new(&mesh, motion)
+                    };
+                    let n = at.rest.len();
+                    let difference =
+                        (at.moved(n - 1, phase).0 - at.moved(n - 2, phase).0) / (hi - lo)[axis];
+                    let column = jacobian.col(axis);
+                    assert!(
+                        (difference - column).length() < 2e-2 * column.length().max(1.0),
+                        "{motion:?}, vertex {v}, axis {axis}: {difference} against {column}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// `motion` at full strength posed on a scan of `triangles` with area-weighted
+    /// normals and tangents across them: the angles between the posed normals and the
+    /// moved surface's own area-weighted normals (and, second, the rest normals'),
+    /// sorted by the first, over the vertices whose normals stand for their surface.
+    fn posed_normal_errors(motion: Procedural, triangles: usize) -> Vec<(f32, f32)> {
+        let mut mesh = crate::scenes::scan_blob(triangles, 5);
+        let (rest_normals, spread) =
+            vertex_normals(&mesh, &mesh.positions, &Deform::new(&mesh, motion));
+        let tangents: Vec<[f32; 4]> = rest_normals
+            .iter()
+            .map(|n| n.any_orthonormal_vector().extend(-1.0).to_array())
+            .collect();
+        let normals: Vec<[f32; 3]> = rest_normals.iter().map(|n| n.to_array()).collect();
+        mesh.attributes
+            .push(VertexAttribute::from_f32("NORMAL", &normals));
+        mesh.attributes
+            .push(VertexAttribute::from_f32("TANGENT", &tangents));
+        let deform = Deform::new(&mesh, motion);
+        let mut posed = mesh.clone();
+        // Twice: a frame is posed from the rest pose, not from the frame before.
+        deform.pose(1.0, &mut posed);
+        deform.pose(1.0, &mut posed);
+        let (expected, torn) = vertex_normals(&mesh, &posed.positions, &deform);
+        let stream = |name: &str| posed.attribute(name).unwrap().to_f32();
+        let (turned, tangents) = (stream("NORMAL"), stream("TANGENT"));
+        let mut errors = Vec::new();
+        for v in (0..expected.len()).filter(|&v| !torn[v] && !spread[v]) {
+            let [n, t] = [&turned, &tangents].map(|a| {
+                let x = a.vertex(v);
+                Vec3::new(x[0] as f32, x[1] as f32, x[2] as f32)
+            });
+            assert!((n.length() - 1.0).abs() < 1e-5 && (t.length() - 1.0).abs() < 1e-5);
+            assert!(
+                n.dot(t).abs() < 1e-4,
+                "{motion:?}: a tangent left its surface"
+            );
+            assert_eq!(tangents.vertex(v)[3], -1.0, "the handedness is kept");
+            errors.push((
+                n.angle_between(expected[v]),
+                rest_normals[v].angle_between(expected[v]),
+            ));
+        }
+        errors.sort_by(|a, b| a.0.total_cmp(&b.0));
+        errors
+    }
+
+    #[test]
+    fn posed_normals_are_the_moved_surfaces_normals_and_tangents_stay_across_them() {
+        let mean = |e: &[(f32, f32)], k: fn(&(f32, f32)) -> f32| {
+            e.iter().map(k).sum::<f32>() / e.len() as f32
+        };
+        for motion in Procedural::ALL {
+            let (coarse, fine) = (
+                posed_normal_errors(motion, 20_000),
+                posed_normal_errors(motion, 80_000),
+            );
+            let (turned, unturned) = (mean(&fine, |e| e.0), mean(&fine, |e| e.1));
+            let p99 = fine[fine.len() * 99 / 100].0;
+            // Area-weighted normals follow the turned ones to first order in the
+            // triangles' size: a quarter of the triangles' area, half the mean angle
+            // (measured: 2.9–8.1 mrad, p99 10–47 mrad at 80k, 0.02 mrad for the rigid explosion).
+            assert!(
+                turned < 0.01 && p99 < 0.06,
+                "{motion:?}: mean {turned}, p99 {p99} rad"
+            );
+            assert!(
+                turned < 0.6 * mean(&coarse, |e| e.0) || turned < 1e-4,
+                "{motion:?}: no closer on a finer mesh"
+            );
+            assert!(
+                unturned > 0.3,
+                "{motion:?}: the motion turns the surface ({unturned} rad)"
+            );
+        }
+    }
+
+    #[test]
+    fn phase_zero_keeps_normals_bit_for_bit() {
+        let mut mesh = crate::scenes::scan_blob(500, 2);
+        let normals: Vec<[f32; 3]> = (0..mesh.positions.len())
+            .map(|v| [0.6, 0.0, 0.8 + v as f32 * 1e-9])
+            .collect();
+        mesh.attributes
+            .push(VertexAttribute::from_f32("NORMAL", &normals));
+        for motion in Procedural::ALL {
+            let mut posed = mesh.clone();
+            Deform::new(&mesh, motion).pose(0.0, &mut posed);
+            assert_eq!(posed.attributes, mesh.attributes, "{motion:?}");
         }
     }
 }

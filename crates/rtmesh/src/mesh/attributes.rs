@@ -430,14 +430,48 @@ impl VertexAttribute {
             Semantic::Tangent => linear,
             _ => return,
         };
-        if matrix == Mat3::IDENTITY || self.components < 3 {
+        self.turn_each(|_| matrix);
+    }
+
+    /// [`transform`](Self::transform) with a linear map J of its own for each vertex
+    /// (a deformation's Jacobian). Normals go by J's cofactor matrix, det J · J⁻ᵀ,
+    /// which is what the triangles' own normals follow: where a deformation folds
+    /// space (det J < 0) the normals keep to the side the triangles' winding faces.
+    /// Vertices whose map is the identity keep their stored values bit for bit.
+    pub fn transform_each(&mut self, linear: impl Fn(usize) -> Mat3) {
+        let cofactor = |j: Mat3| {
+            Mat3::from_cols(
+                j.y_axis.cross(j.z_axis),
+                j.z_axis.cross(j.x_axis),
+                j.x_axis.cross(j.y_axis),
+            )
+        };
+        match self.semantic() {
+            Semantic::Normal => self.turn_each(|v| cofactor(linear(v))),
+            Semantic::Tangent => self.turn_each(linear),
+            _ => {}
+        }
+    }
+
+    /// Each vertex's first three components turned by `matrix_of` it and renormalized.
+    fn turn_each(&mut self, matrix_of: impl Fn(usize) -> Mat3) {
+        if self.components < 3 {
             return;
         }
-        fn turn<T: Scalar>(values: &mut [T], k: usize, matrix: Mat3, normalized: bool) {
+        fn turn<T: Scalar>(
+            values: &mut [T],
+            k: usize,
+            matrix_of: &dyn Fn(usize) -> Mat3,
+            normalized: bool,
+        ) {
             if !T::FLOAT && !normalized {
                 return;
             }
-            for vertex in values.chunks_exact_mut(k) {
+            for (v, vertex) in values.chunks_exact_mut(k).enumerate() {
+                let matrix = matrix_of(v);
+                if matrix == Mat3::IDENTITY {
+                    continue;
+                }
                 let [x, y, z] = [0, 1, 2].map(|c| unit_value(vertex[c], normalized) as f32);
                 let turned = (matrix * Vec3::new(x, y, z)).normalize_or_zero();
                 for (stored, t) in vertex.iter_mut().zip(turned.to_array()) {
@@ -446,7 +480,7 @@ impl VertexAttribute {
             }
         }
         let (k, normalized) = (self.components, self.normalized);
-        each_type!(&mut self.values, values => turn(values, k, matrix, normalized))
+        each_type!(&mut self.values, values => turn(values, k, &matrix_of, normalized))
     }
 
     /// Append vertex `v`'s bytes (for hashing whole vertices when welding).
