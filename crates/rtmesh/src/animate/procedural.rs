@@ -88,11 +88,20 @@ impl Deform {
     /// `mesh` (the one it was made from) moved to `phase`: its positions, and its
     /// normals and tangents turned by the motion's Jacobian from their rest values.
     pub fn pose(&self, phase: f32, mesh: &mut TriMesh) {
-        mesh.positions = self.positions(phase);
+        if self.directions.is_empty() {
+            mesh.positions = self.positions(phase);
+            return;
+        }
+        // Each vertex's motion once, for its position and for every stream it turns.
+        let (positions, jacobians): (Vec<Vec3>, Vec<Mat3>) = (0..self.rest.len())
+            .into_par_iter()
+            .map(|v| self.moved(v, phase))
+            .unzip();
+        mesh.positions = positions;
         for rest in &self.directions {
             if let Some(a) = mesh.attributes.iter_mut().find(|a| a.name == rest.name) {
                 *a = rest.clone();
-                a.transform_each(|v| self.jacobian(v, phase));
+                a.transform_each(|v| jacobians[v]);
             }
         }
     }
@@ -110,13 +119,8 @@ impl Deform {
             .collect()
     }
 
-    /// The Jacobian ∂f/∂p of the motion f at vertex `v` and `phase`: what turns its
-    /// tangents (by J) and normals (by J⁻ᵀ).
-    pub fn jacobian(&self, v: usize, phase: f32) -> Mat3 {
-        self.moved(v, phase).1
-    }
-
-    /// Vertex `v` at `phase`, and the motion's Jacobian there. Twist and bend are
+    /// Vertex `v` at `phase`, and the motion's Jacobian J = ∂f/∂p there, which turns
+    /// its tangents (by J) and normals (by J's cofactor). Twist and bend are
     /// rotations R(a) by an angle a = k·(y − y₀) that grows with height, so
     /// f(p) = o + R(a)(p − o) and J = R + (axis × R(p − o)) · k ŷᵀ; the wave is a shear,
     /// J = I + across · ∂offset/∂along; a piece of the explosion moves rigidly, J = its
@@ -282,7 +286,7 @@ mod tests {
             for v in (0..mesh.positions.len()).step_by(17) {
                 // f at p ± step along each axis, as vertices of a copy whose bounds
                 // are the same (each displaced point is moved back inside them).
-                let jacobian = deform.jacobian(v, phase);
+                let jacobian = deform.moved(v, phase).1;
                 for axis in 0..3 {
                     let d = Vec3::AXES[axis] * step;
                     let mut probe = deform.rest.clone();
